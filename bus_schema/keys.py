@@ -1,0 +1,63 @@
+"""Every key expression of the system. All keys of one DL instance live under dl/<instance>/."""
+from __future__ import annotations
+
+import re
+
+_NAME = re.compile(r"^[a-z0-9][a-z0-9_-]{0,63}$")
+
+
+def check_name(kind: str, name: str) -> str:
+    if not _NAME.match(name):
+        raise ValueError(f"{kind} name {name!r} must be lowercase letters, digits, '-' or '_' (max 64)")
+    return name
+
+
+class InstanceKeys:
+    """Key expressions of one DL instance (see bus_schema/README.md for the table)."""
+
+    def __init__(self, instance: str):
+        self.instance = check_name("instance", instance)
+        p = self.prefix = f"dl/{instance}"
+        self.input = f"{p}/input"
+        self.command = f"{p}/command"
+        self.applied = f"{p}/applied"
+        self.train = f"{p}/train"
+        self.train_recent = f"{p}/train/recent"
+        self.teach = f"{p}/teach"
+        self.select_learner = f"{p}/arbitrator/select"
+        self.spaces = f"{p}/spaces"
+        self.proposals = f"{p}/proposal/**"
+        self.alive_all = f"{p}/alive/**"
+        self.status_all = f"{p}/status/**"
+
+    def proposal(self, role: str, name: str) -> str:
+        return f"{self.prefix}/proposal/{role}/{name}"
+
+    def alive(self, role: str, name: str) -> str:
+        return f"{self.prefix}/alive/{role}/{name}"
+
+    def teaching(self, name: str) -> str:
+        return f"{self.prefix}/alive/teaching/{name}"
+
+    def status(self, role: str, name: str) -> str:
+        return f"{self.prefix}/status/{role}/{name}"
+
+    def snapshot(self, learner: str) -> str:
+        return f"{self.prefix}/learner/{learner}/snapshot"
+
+    def history(self, learner: str) -> str:
+        return f"{self.prefix}/learner/{learner}/history"
+
+    def parse_alive(self, key: str) -> tuple[str, str] | None:
+        """'dl/i/alive/learner/l1' -> ('learner', 'l1'); None for keys of other shapes."""
+        parts = key.split("/")
+        if len(parts) == 5 and parts[:3] == ["dl", self.instance, "alive"]:
+            return parts[3], parts[4]
+        return None
+
+
+SUPERVISOR = "dogged/supervisor"
+
+
+def supervisor_key(profile: str, verb: str) -> str:
+    return f"{SUPERVISOR}/{check_name('profile', profile)}/{verb}"

@@ -1,0 +1,163 @@
+"""Every payload of the system. Units and channel semantics are in bus_schema/README.md."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .codec import BOOL, BYTES, FLOAT, INT, MAP, OPT_VECTOR, STR, VECTOR, VECTORS
+from .errors import SchemaError
+
+MODES = ("teacher", "student", "unsure")
+
+
+def _check_confidence(key: str, confidence: float) -> None:
+    if not 0.0 <= confidence <= 1.0:
+        raise SchemaError(key, "confidence", f"{confidence} is outside [0, 1]")
+
+
+def _check_name(key: str, field: str, value: str, slashes: int = 0) -> None:
+    if len(value) > 130 or value.count("/") > slashes or any(c in value for c in "*$?# "):
+        shape = "a plain name" if not slashes else "'<role>/<name>'"
+        raise SchemaError(key, field, f"{value!r} is not {shape} (no * $ ? # or space)")
+
+
+@dataclass(frozen=True, slots=True)
+class Input:
+    """The platform's input for one tick. stamp: sender's wall clock, seconds."""
+    FIELDS = (("tick", INT), ("stamp", FLOAT), ("x", VECTOR))
+    tick: int
+    stamp: float
+    x: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class Proposal:
+    """A teacher's or learner's answer to one input; y is None when a teacher has nothing to say."""
+    FIELDS = (("tick", INT), ("source", STR), ("y", OPT_VECTOR), ("confidence", FLOAT))
+    tick: int
+    source: str
+    y: np.ndarray | None
+    confidence: float
+
+    def check(self, key: str) -> None:
+        _check_confidence(key, self.confidence)
+        _check_name(key, "source", self.source, slashes=1)
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """The arbitrator's output for one tick, with the mode the robot shows (ears) and who chose it."""
+    FIELDS = (("tick", INT), ("stamp", FLOAT), ("y", VECTOR), ("mode", STR), ("source", STR), ("confidence", FLOAT))
+    tick: int
+    stamp: float
+    y: np.ndarray
+    mode: str
+    source: str
+    confidence: float
+
+    def check(self, key: str) -> None:
+        if self.mode not in MODES:
+            raise SchemaError(key, "mode", f"{self.mode!r} is not one of {', '.join(MODES)}")
+        _check_confidence(key, self.confidence)
+
+
+@dataclass(frozen=True, slots=True)
+class TrainingPair:
+    """One (input, output) pair for the learners. (epoch, seq) numbers pairs without gaps."""
+    FIELDS = (("epoch", STR), ("seq", INT), ("tick", INT), ("x", VECTOR), ("y", VECTOR), ("source", STR))
+    epoch: str
+    seq: int
+    tick: int
+    x: np.ndarray
+    y: np.ndarray
+    source: str
+
+
+@dataclass(frozen=True, slots=True)
+class PairBatch:
+    """Many training pairs in one message (history, gap filling): rows of x and y, seqs first..first+n-1."""
+    FIELDS = (("epoch", STR), ("first_seq", INT), ("x", VECTORS), ("y", VECTORS))
+    MAX_BYTES = 256 * 1024 * 1024
+    epoch: str
+    first_seq: int
+    x: np.ndarray
+    y: np.ndarray
+
+    def check(self, key: str) -> None:
+        if len(self.x) != len(self.y):
+            raise SchemaError(key, "y", f"{len(self.y)} rows for {len(self.x)} inputs")
+
+
+@dataclass(frozen=True, slots=True)
+class Applied:
+    """The command the platform actually applied (after clipping, or the held pose under the watchdog)."""
+    FIELDS = (("tick", INT), ("y", VECTOR), ("held", BOOL))
+    tick: int
+    y: np.ndarray
+    held: bool
+
+
+@dataclass(frozen=True, slots=True)
+class TeachSwitch:
+    """A person switches a teacher on or off; teacher '' means every teacher of the instance."""
+    FIELDS = (("teacher", STR), ("on", BOOL))
+    teacher: str
+    on: bool
+
+
+@dataclass(frozen=True, slots=True)
+class SelectLearner:
+    """Tells the arbitrator which learner serves from now on (hot-swap)."""
+    FIELDS = (("learner", STR),)
+    learner: str
+
+    def check(self, key: str) -> None:
+        _check_name(key, "learner", self.learner)
+
+
+@dataclass(frozen=True, slots=True)
+class Status:
+    """A service's counters and state, once a second, for `dogged ps` and dashboards."""
+    FIELDS = (("role", STR), ("name", STR), ("pid", INT), ("counters", MAP), ("state", MAP))
+    role: str
+    name: str
+    pid: int
+    counters: dict
+    state: dict
+
+    def check(self, key: str) -> None:
+        for name, value in self.counters.items():
+            if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise SchemaError(key, f"counters.{name}", "counters map names to finite numbers")
+
+
+@dataclass(frozen=True, slots=True)
+class SpacesMessage:
+    """The platform's spaces as data (bus_schema.spaces.Spaces.to_dict)."""
+    FIELDS = (("spaces", MAP),)
+    spaces: dict
+
+
+@dataclass(frozen=True, slots=True)
+class Snapshot:
+    """A learner's state for hot-swap: which class, and the last pair it includes."""
+    FIELDS = (("learner_class", STR), ("epoch", STR), ("seq", INT), ("n_learned", INT), ("blob", BYTES))
+    MAX_BYTES = 512 * 1024 * 1024
+    learner_class: str
+    epoch: str
+    seq: int
+    n_learned: int
+    blob: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class ControlReply:
+    """The supervisor's answer to a CLI verb (ps, down, swap, logs): ok, a line for people, data."""
+    FIELDS = (("ok", BOOL), ("text", STR), ("data", MAP))
+    MAX_BYTES = 16 * 1024 * 1024
+    ok: bool
+    text: str
+    data: dict

@@ -1,0 +1,191 @@
+"""The arbitrator box: Algorithm 2, steps 2-7, as a service.
+
+Per tick it gathers the teaching teachers', the active learner's and any default controller's
+proposals up to a deadline, picks the output with a strategy, publishes the command (with the
+mode) and, when a teacher spoke, the training pair. Membership comes from liveliness tokens, so
+it never waits for a process that is gone.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+import uuid
+
+import numpy as np
+import zenoh
+
+from bus_schema import (Command, InstanceKeys, Input, PairBatch, Proposal, SelectLearner, TrainingPair, decode,
+                        encode)
+from services.arbitration.strategies import STRATEGIES, make_strategy
+from services.arbitration.ticks import TickTable
+from services.boxes.common import Membership, fetch_spaces
+from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
+                          lossless_publisher, sensor_publisher, setup_logging)
+
+
+class Arbitrator:
+    """The service's state and handlers; `run` owns the session."""
+
+    def __init__(self, session, keys: InstanceKeys, spaces, strategy, deadline_s, learner, train_on, recent, log):
+        self.session, self.keys, self.log = session, keys, log
+        self.dims = {"x": spaces.input.dims, "y": spaces.output.dims}
+        self.strategy, self.train_on = strategy, train_on
+        self.table = TickTable(deadline_s)
+        self.members = Membership(keys)
+        self.selected = learner
+        self.epoch, self.seq = uuid.uuid4().hex[:12], 0
+        self.recent: collections.deque[TrainingPair] = collections.deque(maxlen=recent)
+        self.last_command = np.zeros(spaces.output.dims)
+        self.rejects = Rejects(log)
+        self.counts = collections.Counter()
+        self.command_pub = sensor_publisher(session, keys.command)
+        self.train_pub = lossless_publisher(session, keys.train)
+
+    # --- membership -------------------------------------------------------------------------
+    def active_learner(self) -> str | None:
+        learners = self.members.names("learner")
+        if self.selected in learners:
+            return self.selected
+        # the selected learner is gone (or none was chosen): the longest-lived learner serves
+        for member in self.members.order:
+            role, name = member.split("/", 1)
+            if role == "learner":
+                return name
+        return None
+
+    def expected(self) -> set[str]:
+        out = {f"teacher/{n}" for n in self.members.names("teaching")}
+        out |= {f"default/{n}" for n in self.members.names("default")}
+        learner = self.active_learner()
+        if learner is not None:
+            out.add(f"learner/{learner}")
+        return out
+
+    # --- handlers ---------------------------------------------------------------------------
+    def on_input(self, key, raw, now):
+        msg = decode_or_reject(lambda: decode(Input, raw, key, {"x": self.dims["x"]}), self.rejects, key)
+        if msg is not None:
+            self.counts["inputs"] += 1
+            self.table.add_input(msg.tick, msg.stamp, msg.x, now)
+
+    def on_proposal(self, key, raw, now):
+        parts = key.split("/")
+        if len(parts) != 5 or parts[3] not in ("teacher", "learner", "default"):
+            self.rejects(key, ValueError(f"{key}: not a proposal key (dl/<i>/proposal/<role>/<name>)"))
+            return
+        msg = decode_or_reject(lambda: decode(Proposal, raw, key, {"y": self.dims["y"]}), self.rejects, key)
+        if msg is not None:
+            self.counts["proposals"] += 1
+            self.table.add_proposal(f"{parts[3]}/{parts[4]}", msg, now)
+
+    def on_select(self, key, raw, now):
+        msg = decode_or_reject(lambda: decode(SelectLearner, raw, key), self.rejects, key)
+        if msg is not None:
+            self.log.info("learner %s serves from now on (was %s)", msg.learner, self.active_learner())
+            self.selected = msg.learner
+            self.counts["swaps"] += 1
+
+    def on_recent_query(self, query: zenoh.Query):
+        """Gap filling: the training pairs of this epoch with seq in [from, to] still in memory."""
+        params = query.parameters
+        try:
+            first, last = int(params.get("from", "1")), int(params.get("to", str(self.seq)))
+        except ValueError:
+            query.reply_err(b"from and to must be integers")
+            return
+        rows = [p for p in self.recent if first <= p.seq <= last]
+        xs = np.array([p.x for p in rows]).reshape(-1, self.dims["x"])
+        ys = np.array([p.y for p in rows]).reshape(-1, self.dims["y"])
+        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys)))
+
+    # --- deciding ---------------------------------------------------------------------------
+    def decide_ready(self, now):
+        expected = self.expected()
+        learner = self.active_learner()
+        for entry in self.table.ready(expected, now):
+            if not expected.issubset(entry.proposals):
+                self.counts["deadline_misses"] += 1
+            teachers = [(m, p) for m, p in entry.proposals.items() if m.startswith("teacher/") and p.y is not None]
+            mine = f"learner/{learner}"
+            learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
+            defaults = [(m, p) for m, p in entry.proposals.items() if m.startswith("default/") and p.y is not None]
+            d = self.strategy.decide(teachers, learner_p, defaults[0] if defaults else None, self.last_command)
+            self.last_command = d.y
+            self.command_pub.put(encode(Command(entry.tick, entry.stamp, d.y, d.mode, d.source, d.confidence)))
+            self.counts["commands"] += 1
+            self.counts[f"mode_{d.mode}"] += 1
+            if d.train or self.train_on == "all":
+                self.publish_pair(entry.tick, entry.x, d.y, d.source)
+
+    def publish_pair(self, tick, x, y, source):
+        self.seq += 1
+        pair = TrainingPair(self.epoch, self.seq, tick, x, np.asarray(y, dtype=np.float64), source)
+        self.recent.append(pair)
+        self.train_pub.put(encode(pair))
+        self.counts["train_pairs"] += 1
+
+    def status(self) -> tuple[dict, dict]:
+        counters = dict(self.counts, rejected=self.rejects.total, late_proposals=self.table.late, pending=len(self.table))
+        state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq,
+                 "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts)}
+        return counters, state
+
+
+def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: str = "teacher-first",
+         unsure_below: float = 0.25, deadline_ms: float = 20.0, learner: str | None = None,
+         train_on: str = "teacher", recent: int = 65536, strategy_params: dict | None = None) -> int:
+    log = setup_logging("arbitrator", name)
+    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
+    chooser = make_strategy(strategy, unsure_below=unsure_below, **(strategy_params or {}))
+    with zenoh.open(conf) as session:
+        spaces = fetch_spaces(session, keys, stop, log)
+        if spaces is None:
+            return 0
+        arb = Arbitrator(session, keys, spaces, chooser, deadline_ms / 1000.0, learner, train_on, recent, log)
+        session.liveliness().declare_subscriber(keys.alive_all, inbox.callback("alive"), history=True)
+        session.declare_subscriber(keys.input, inbox.callback("input"))
+        session.declare_subscriber(keys.proposals, inbox.callback("proposal"))
+        session.declare_subscriber(keys.select_learner, inbox.callback("select"))
+        session.declare_queryable(keys.train_recent, inbox.query_callback("recent"))
+        status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name)
+        session.liveliness().declare_token(keys.alive("arbitrator", name))
+        log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
+                 strategy, unsure_below)
+        handlers = {"input": arb.on_input, "proposal": arb.on_proposal, "select": arb.on_select}
+        while not stop:
+            now = time.monotonic()
+            deadline = arb.table.next_deadline()
+            item = inbox.get(0.05 if deadline is None else min(0.05, max(0.0, deadline - now)))
+            while item is not None:
+                tag, key, raw, kind = item
+                now = time.monotonic()
+                if tag == "alive":
+                    arb.members.update(key, kind)
+                elif tag == "recent":
+                    arb.on_recent_query(raw)
+                else:
+                    handlers[tag](key, raw, now)
+                arb.decide_ready(now)
+                item = inbox.get_nowait()
+            arb.decide_ready(time.monotonic())
+            status.maybe_publish(*arb.status())
+    return 0
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged run arbitrator", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", default="main")
+    parser.add_argument("--name", default="arbitrator")
+    parser.add_argument("--strategy", choices=sorted(STRATEGIES), default="teacher-first")
+    parser.add_argument("--unsure-below", type=float, default=0.25, help="learner confidence that means 'unsure'")
+    parser.add_argument("--deadline-ms", type=float, default=20.0, help="how long a tick waits for proposals")
+    parser.add_argument("--learner", default=None, help="the learner that serves first (default: the oldest alive)")
+    parser.add_argument("--train-on", choices=("teacher", "all"), default="teacher",
+                        help="teacher: only teacher outputs train the learner; all: every output does (Alg. 2 literally)")
+    parser.add_argument("--error-threshold", type=float, default=None, help="predictive strategy (Algorithm 1)")
+    add_bus_args(parser)
+    args = parser.parse_args(argv)
+    params = {"error_threshold": args.error_threshold} if args.error_threshold is not None else {}
+    return main(config_from_args(args), args.instance, args.name, args.strategy, args.unsure_below,
+                args.deadline_ms, args.learner, args.train_on, strategy_params=params)

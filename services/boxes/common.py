@@ -1,0 +1,58 @@
+"""What several boxes need from the bus: the platform's spaces and who is alive."""
+from __future__ import annotations
+
+import logging
+import time
+
+import zenoh
+
+from bus_schema import InstanceKeys, SchemaError, Spaces, SpacesMessage, decode
+
+
+def fetch_spaces(session: zenoh.Session, keys: InstanceKeys, stop, log: logging.Logger,
+                 timeout: float | None = None) -> Spaces | None:
+    """Ask the platform for its spaces until it answers (dims come from the platform, not from flags)."""
+    start, warned = time.monotonic(), False
+    while not stop:
+        for reply in session.get(keys.spaces, timeout=1.0):
+            if reply.ok is None:
+                continue
+            try:
+                return Spaces.from_dict(decode(SpacesMessage, reply.ok.payload.to_bytes(), keys.spaces).spaces)
+            except (SchemaError, KeyError, TypeError, ValueError) as err:
+                log.error("platform spaces rejected: %s", err)
+        if timeout is not None and time.monotonic() - start > timeout:
+            return None
+        if not warned and time.monotonic() - start > 3:
+            log.info("waiting for the platform to answer on %s", keys.spaces)
+            warned = True
+        time.sleep(0.1)
+    return None
+
+
+class Membership:
+    """Who is alive in this instance, from liveliness tokens (dl/<i>/alive/<role>/<name>)."""
+
+    def __init__(self, keys: InstanceKeys):
+        self.keys = keys
+        self.alive: dict[str, set[str]] = {}
+        self.order: list[str] = []  # members in order of appearance
+
+    def update(self, key: str, kind) -> tuple[str, str] | None:
+        parsed = self.keys.parse_alive(key)
+        if parsed is None:
+            return None
+        role, name = parsed
+        member = f"{role}/{name}"
+        if kind == zenoh.SampleKind.PUT:
+            self.alive.setdefault(role, set()).add(name)
+            if member not in self.order:
+                self.order.append(member)
+        else:
+            self.alive.get(role, set()).discard(name)
+            if member in self.order:
+                self.order.remove(member)
+        return parsed
+
+    def names(self, role: str) -> set[str]:
+        return self.alive.get(role, set())

@@ -1,0 +1,196 @@
+"""The learner box: serves any learner of services.learners on the bus.
+
+It answers each newest input with a prediction and a confidence, and learns every training pair
+(lossless, numbered (epoch, seq): a gap is filled from the arbitrator's recent pairs). It serves
+its snapshot and its history so a replacement can be warmed (hot-swap), and with --state-dir it
+logs every pair to a file and replays it after a crash, so a restart forgets nothing.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+from pathlib import Path
+
+import numpy as np
+import zenoh
+
+from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, Snapshot, TrainingPair, decode,
+                        encode)
+from services.boxes.common import fetch_spaces
+from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
+                          sensor_publisher, setup_logging)
+from services.learners import LEARNERS, make_learner
+from services.pairlog import PairLog
+from services.params import parse_params
+
+
+class LearnerNode:
+    def __init__(self, session, keys, name, model, pairlog, log):
+        self.session, self.keys, self.name, self.model, self.pairs, self.log = session, keys, name, model, pairlog, log
+        self.dims = {"x": model.n_in, "y": model.n_out}
+        self.epoch, self.seq = "", 0
+        self.rejects, self.counts = Rejects(log), collections.Counter()
+        self.pub = sensor_publisher(session, keys.proposal("learner", name))
+
+    # --- learning ---------------------------------------------------------------------------
+    def incorporate(self, x, y, epoch, seq, pair=None):
+        self.model.learn_one(x, y)
+        self.pairs.append(x, y, pair)
+        self.epoch, self.seq = epoch, seq
+        self.counts["learned"] += 1
+
+    def on_pair(self, pair: TrainingPair):
+        if pair.epoch != self.epoch:
+            self.log.info("training epoch %s begins (arbitrator started)", pair.epoch)
+            self.epoch, self.seq = pair.epoch, 0
+        if pair.seq <= self.seq:
+            self.counts["duplicates"] += 1
+            return
+        if pair.seq > self.seq + 1:
+            self.fill_gap(pair.seq - 1)
+        self.incorporate(pair.x, pair.y, pair.epoch, pair.seq, pair)
+
+    def fill_gap(self, last: int):
+        first = self.seq + 1
+        batch = self.query(self.keys.train_recent, PairBatch, f"from={first};to={last}")
+        if batch is None or batch.epoch != self.epoch or batch.first_seq != first or len(batch.x) != last - first + 1:
+            self.counts["pairs_lost"] += last - first + 1
+            self.log.error("training pairs %d..%d of epoch %s are gone; learning goes on without them",
+                           first, last, self.epoch)
+            return
+        for i, (x, y) in enumerate(zip(batch.x, batch.y)):
+            seq = first + i
+            self.incorporate(x, y, self.epoch, seq, TrainingPair(self.epoch, seq, -1, x, y, "gap-fill"))
+        self.counts["gap_filled"] += len(batch.x)
+
+    def query(self, key, cls, parameters="", timeout=5.0):
+        selector = f"{key}?{parameters}" if parameters else key
+        for reply in self.session.get(selector, timeout=timeout):
+            if reply.ok is not None:
+                try:
+                    return decode(cls, reply.ok.payload.to_bytes(), key, self.dims)
+                except SchemaError as err:
+                    self.rejects(key, err)
+        return None
+
+    # --- warming ----------------------------------------------------------------------------
+    def replay(self, pairs: list[TrainingPair]):
+        for p in pairs:
+            self.model.learn_one(p.x, p.y)
+            self.pairs.append(p.x, p.y)
+            self.epoch, self.seq = p.epoch, p.seq
+        self.counts["replayed"] = len(pairs)
+
+    def warm_from(self, old: str) -> bool:
+        """Take over from learner `old`: its snapshot if the class matches, else learn its history."""
+        snap = self.query(self.keys.snapshot(old), Snapshot, timeout=10.0)
+        if snap is None:
+            self.log.error("learner %s did not answer with a snapshot; starting cold", old)
+            return False
+        history = self.query(self.keys.history(old), PairBatch, f"epoch={snap.epoch};upto={snap.seq}", timeout=30.0)
+        if history is None or len(history.x) != snap.n_learned:
+            self.log.error("learner %s's history is incomplete; starting cold", old)
+            return False
+        if snap.learner_class == type(self.model).__name__:
+            self.model = type(self.model).restore(snap.blob)
+            how = "snapshot"
+        else:
+            self.model.learn_many(history.x, history.y)
+            how = f"training on {len(history.x)} pairs"
+        first = snap.seq - len(history.x) + 1
+        for i, (x, y) in enumerate(zip(history.x, history.y)):
+            self.pairs.append(x, y, TrainingPair(snap.epoch, first + i, -1, x, y, "history"))
+        self.epoch, self.seq = snap.epoch, snap.seq
+        self.counts["warmed"] = len(history.x)
+        self.log.info("warmed from %s by %s (up to seq %d of epoch %s)", old, how, snap.seq, snap.epoch)
+        return True
+
+    # --- serving ----------------------------------------------------------------------------
+    def answer(self, msg: Input):
+        p = self.model.predict_one(msg.x)
+        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", p.y, float(p.confidence))))
+        self.counts["proposals"] += 1
+
+    def on_query(self, query: zenoh.Query):
+        key = str(query.key_expr)
+        if key == self.keys.snapshot(self.name):
+            query.reply(key, encode(Snapshot(type(self.model).__name__, self.epoch, self.seq, len(self.pairs),
+                                             self.model.snapshot())))
+            return
+        params = query.parameters
+        n = len(self.pairs)
+        upto = params.get("upto")
+        if upto is not None and params.get("epoch") == self.epoch:
+            n -= max(0, self.seq - int(upto))  # the rows learned after `upto`
+        query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, self.pairs.x[:n],
+                                          self.pairs.y[:n])))
+
+    def status(self):
+        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, size=int(self.model.size))
+        return counters, {"learner": type(self.model).__name__, "epoch": self.epoch}
+
+
+def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: str = "learner", seed: int = 0,
+         state_dir: str | None = None, warm_from: str | None = None) -> int:
+    log = setup_logging("learner", name)
+    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
+    with zenoh.open(conf) as session:
+        spaces = fetch_spaces(session, keys, stop, log)
+        if spaces is None:
+            return 0
+        model = make_learner(learner, n_in=spaces.input.dims, n_out=spaces.output.dims, seed=seed, **params)
+        pairlog = PairLog(model.n_in, model.n_out, Path(state_dir) / f"{name}.pairs" if state_dir else None)
+        node = LearnerNode(session, keys, name, model, pairlog, log)
+        # subscribe before warming: pairs published meanwhile wait in the inbox, none is missed
+        session.declare_subscriber(keys.train, inbox.callback("train"))
+        saved = pairlog.replay_file()
+        if saved:
+            node.replay(saved)
+            log.info("replayed %d pairs from %s", len(saved), pairlog.path)
+        elif warm_from:
+            node.warm_from(warm_from)
+        session.declare_subscriber(keys.input, inbox.callback("input"))
+        session.declare_queryable(keys.snapshot(name), inbox.query_callback("query"))
+        session.declare_queryable(keys.history(name), inbox.query_callback("query"))
+        status = StatusPublisher(session, keys.status("learner", name), "learner", name)
+        session.liveliness().declare_token(keys.alive("learner", name))
+        log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
+        while not stop:
+            item, newest, pairs = inbox.get(0.1), None, []
+            while item is not None:
+                tag, key, raw, _ = item
+                if tag == "input":
+                    newest = decode_or_reject(lambda: decode(Input, raw, key, {"x": model.n_in}), node.rejects, key) \
+                        or newest
+                elif tag == "train":
+                    pair = decode_or_reject(lambda: decode(TrainingPair, raw, key, node.dims), node.rejects, key)
+                    if pair is not None:
+                        pairs.append(pair)
+                else:
+                    node.on_query(raw)
+                item = inbox.get_nowait()
+            if newest is not None:  # answer first: the tick is waiting; learning can follow
+                node.answer(newest)
+            for pair in pairs:
+                node.on_pair(pair)
+            status.maybe_publish(*node.status())
+        pairlog.close()
+    return 0
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged run learner", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", default="main")
+    parser.add_argument("--name", default="learner")
+    parser.add_argument("--learner", default="lwpr", help=f"one of: {', '.join(sorted(LEARNERS))}")
+    parser.add_argument("--param", action="append", help="hyper-parameter name=value (repeatable)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--state-dir", default=None, help="log pairs here and replay them after a restart")
+    parser.add_argument("--warm-from", default=None, help="hot-swap: take over from this learner")
+    add_bus_args(parser)
+    args = parser.parse_args(argv)
+    if args.learner not in LEARNERS:
+        parser.error(f"--learner: unknown learner {args.learner!r}; known: {', '.join(sorted(LEARNERS))}")
+    return main(config_from_args(args), args.instance, args.learner, parse_params(args.param), args.name,
+                args.seed, args.state_dir, args.warm_from)

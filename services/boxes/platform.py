@@ -1,0 +1,141 @@
+"""The platform box: puts any Platform (services.platforms) on the bus.
+
+At the control rate it publishes the input, applies the freshest command (latest-only) and
+reports what it applied; with no fresh command for `watchdog` seconds it holds still. With
+rate 0 it runs in lockstep, as fast as the loop answers (simulated time still advances 1/sim_hz
+per tick). It measures each tick's latency: input published -> its command received.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+
+import numpy as np
+import zenoh
+
+from bus_schema import Applied, Command, InstanceKeys, Input, SpacesMessage, decode, encode
+from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
+                          sensor_publisher, setup_logging)
+from services.params import parse_params
+from services.platforms import PLATFORMS, make_platform
+
+
+class PlatformLoop:
+    def __init__(self, session, keys, platform, log, latency_log=None):
+        self.keys, self.platform, self.log = keys, platform, log
+        self.dims = platform.spaces.output.dims
+        self.input_pub = sensor_publisher(session, keys.input)
+        self.applied_pub = sensor_publisher(session, keys.applied)
+        self.rejects = Rejects(log)
+        self.counts = collections.Counter()
+        self.tick = 0
+        self.latest: Command | None = None
+        self.latest_at = -1.0
+        self.applied_tick = -1
+        self.latencies: list[float] = [] if latency_log else None
+        self.recent_latency = collections.deque(maxlen=2000)
+        self.mode = ""
+
+    def publish_input(self):
+        self.tick += 1
+        self.input_pub.put(encode(Input(self.tick, time.time(), self.platform.observe())))
+        self.counts["inputs"] += 1
+
+    def on_command(self, key, raw):
+        msg = decode_or_reject(lambda: decode(Command, raw, key, {"y": self.dims}), self.rejects, key)
+        if msg is None:
+            return
+        self.counts["commands"] += 1
+        latency = time.time() - msg.stamp
+        self.recent_latency.append(latency)
+        if self.latencies is not None:
+            self.latencies.append(latency)
+        if self.latest is None or msg.tick > self.latest.tick:
+            self.latest, self.latest_at = msg, time.monotonic()
+        if msg.mode != self.mode:
+            self.mode = msg.mode
+            show = getattr(self.platform, "show_mode", None)
+            if show is not None:
+                show(msg.mode)
+
+    def advance(self, dt, watchdog):
+        fresh = self.latest is not None and self.latest.tick > self.applied_tick \
+            and time.monotonic() - self.latest_at <= watchdog
+        if fresh:
+            applied = self.platform.step(self.latest.y, dt)
+            self.applied_tick = self.latest.tick
+            self.applied_pub.put(encode(Applied(self.latest.tick, applied, False)))
+        elif self.latest is not None and time.monotonic() - self.latest_at <= watchdog:
+            self.platform.step(self.latest.y, dt)  # late answer, watchdog not fired: keep the last command
+        else:
+            self.platform.hold(dt)  # watchdog: nothing fresh, hold still
+            self.counts["held"] += 1
+
+    def status(self):
+        lat = np.array(self.recent_latency) * 1e3 if self.recent_latency else np.zeros(1)
+        counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick)
+        state = {"mode": self.mode, "latency_p50_ms": round(float(np.percentile(lat, 50)), 3),
+                 "latency_p99_ms": round(float(np.percentile(lat, 99)), 3)}
+        return counters, state
+
+
+def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: str = "platform",
+         rate_hz: float = 30.0, sim_hz: float = 30.0, watchdog: float = 0.5, max_ticks: int = 0,
+         latency_log: str | None = None) -> int:
+    log = setup_logging("platform", name)
+    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
+    with make_platform(platform, **params) as robot, zenoh.open(conf) as session:
+        loop = PlatformLoop(session, keys, robot, log, latency_log)
+        spaces_payload = encode(SpacesMessage(robot.spaces.to_dict()))
+        session.declare_queryable(keys.spaces, inbox.query_callback("spaces"))
+        session.declare_subscriber(keys.command, inbox.callback("command"))
+        status = StatusPublisher(session, keys.status("platform", name), "platform", name)
+        session.liveliness().declare_token(keys.alive("platform", name))
+        log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
+                 robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
+        period = 1.0 / rate_hz if rate_hz else None
+        dt = period or 1.0 / sim_hz
+        next_tick = time.monotonic()
+        while not stop:
+            now = time.monotonic()
+            answered = loop.latest is not None and loop.latest.tick >= loop.tick
+            if max_ticks and loop.tick >= max_ticks and (answered or now >= next_tick + watchdog):
+                break  # the last tick is answered (or will never be): done
+            if now >= next_tick or (period is None and answered):
+                if loop.tick:
+                    loop.advance(dt, watchdog)
+                if not (max_ticks and loop.tick >= max_ticks):
+                    loop.publish_input()
+                # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
+                next_tick = max(next_tick + period, now) if period else now + watchdog
+            item = inbox.get(max(0.0, next_tick - time.monotonic()))
+            while item is not None:
+                tag, key, raw, _ = item
+                if tag == "spaces":
+                    raw.reply(keys.spaces, spaces_payload)
+                else:
+                    loop.on_command(key, raw)
+                item = inbox.get_nowait()
+            status.maybe_publish(*loop.status())
+        if latency_log:
+            np.save(latency_log, np.array(loop.latencies))
+        log.info("stopping after %d ticks, %d commands", loop.tick, loop.counts["commands"])
+    return 0
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged run platform", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", default="main")
+    parser.add_argument("--name", default="platform")
+    parser.add_argument("--platform", choices=sorted(PLATFORMS), default="point")
+    parser.add_argument("--param", action="append", help="platform parameter name=value (repeatable)")
+    parser.add_argument("--rate", type=float, default=30.0, help="control rate in Hz; 0 = lockstep, as fast as answered")
+    parser.add_argument("--sim-hz", type=float, default=30.0, help="simulated ticks per second in lockstep")
+    parser.add_argument("--watchdog", type=float, default=0.5, help="seconds without a fresh command before holding still")
+    parser.add_argument("--max-ticks", type=int, default=0, help="stop after this many ticks (0: run until stopped)")
+    parser.add_argument("--latency-log", default=None, help="save every tick latency (s) to this .npy file at exit")
+    add_bus_args(parser)
+    args = parser.parse_args(argv)
+    return main(config_from_args(args), args.instance, args.platform, parse_params(args.param), args.name,
+                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log)

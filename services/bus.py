@@ -1,0 +1,186 @@
+"""The one place that turns flags into a Zenoh session, plus what every service shares.
+
+Callbacks run on Zenoh's threads: they only append (tag, key, bytes) to an inbox; the service's
+own thread decodes, validates and acts, so nothing blocks or calls Zenoh inside a callback.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import queue
+import signal
+import threading
+import time
+from collections import Counter
+
+import zenoh
+
+from bus_schema import SchemaError, Status, encode
+
+DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
+LOCAL_LISTEN = "tcp/127.0.0.1:0"
+
+
+def add_bus_args(parser: argparse.ArgumentParser) -> None:
+    g = parser.add_argument_group("bus")
+    g.add_argument("--connect", action="append", default=None,
+                   help=f"router endpoint(s) (default $DOGGED_CONNECT or {DEFAULT_ROUTER})")
+    g.add_argument("--listen", action="append", default=None, help="endpoint(s) to listen on")
+    g.add_argument("--mode", choices=("peer", "client", "router"), default="peer",
+                   help="peer (default, direct links to other services), client (all via the router), router")
+    g.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file applied first")
+
+
+def zenoh_config(connect=None, listen=None, mode="peer", config_file=None) -> zenoh.Config:
+    """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise."""
+    conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
+    conf.insert_json5("mode", json.dumps(mode))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if mode == "router":
+        conf.insert_json5("listen/endpoints", json.dumps(listen or [DEFAULT_ROUTER]))
+    else:
+        connect = connect or [os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)]
+        conf.insert_json5("connect/endpoints", json.dumps(connect))
+        if mode == "peer":
+            conf.insert_json5("listen/endpoints", json.dumps(listen or [LOCAL_LISTEN]))
+        # keep trying the router while it starts, instead of failing at once
+        conf.insert_json5("connect/timeout_ms", "-1")
+        conf.insert_json5("connect/exit_on_failure", "false")
+    return conf
+
+
+def config_from_args(args: argparse.Namespace) -> zenoh.Config:
+    return zenoh_config(args.connect, args.listen, args.mode, args.zenoh_config)
+
+
+class StopFlag:
+    """Set by SIGINT/SIGTERM so a service's loop ends and its `with` blocks close cleanly (exit 0)."""
+
+    def __init__(self):
+        self._event = threading.Event()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: self._event.set())
+        supervisor = os.environ.get("DOGGED_SUPERVISED")
+        if supervisor:  # no orphans: if the supervisor dies, even by SIGKILL, its services stop too
+            threading.Thread(target=self._watch_parent, args=(int(supervisor),), daemon=True).start()
+
+    def _watch_parent(self, supervisor_pid: int) -> None:
+        while not self._event.wait(0.5):
+            if os.getppid() != supervisor_pid:
+                self._event.set()
+
+    def __bool__(self) -> bool:
+        return self._event.is_set()
+
+    def set(self) -> None:
+        self._event.set()
+
+
+class Inbox:
+    """A queue the Zenoh callbacks feed; the service thread drains it."""
+
+    def __init__(self):
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+
+    def callback(self, tag: str):
+        q = self._queue
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            q.put((tag, str(sample.key_expr), sample.payload.to_bytes(), sample.kind))
+        return on_sample
+
+    def query_callback(self, tag: str):
+        """Queries are answered by the service thread, so the callback only hands them over."""
+        q = self._queue
+
+        def on_query(query: zenoh.Query) -> None:
+            q.put((tag, str(query.key_expr), query, None))
+        return on_query
+
+    def get(self, timeout: float):
+        try:
+            return self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def get_nowait(self):
+        try:
+            return self._queue.get_nowait()
+        except queue.Empty:
+            return None
+
+
+class Rejects:
+    """Counts rejected payloads by key and logs the reason (at most once a second per key)."""
+
+    def __init__(self, log: logging.Logger):
+        self.log, self.counts, self._last_log = log, Counter(), {}
+
+    def __call__(self, key: str, error: Exception) -> None:
+        self.counts[key] += 1
+        now = time.monotonic()
+        if now - self._last_log.get(key, 0.0) >= 1.0:
+            self._last_log[key] = now
+            self.log.warning("rejected payload (%d so far on this key): %s", self.counts[key], error)
+
+    @property
+    def total(self) -> int:
+        return sum(self.counts.values())
+
+
+class StatusPublisher:
+    """Publishes a Status once a second (latest-only: a lost one is replaced by the next)."""
+
+    def __init__(self, session: zenoh.Session, key: str, role: str, name: str, period: float = 1.0):
+        self._pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP)
+        self.role, self.name, self.period, self._next = role, name, period, 0.0
+        self._previous: tuple[float, dict] | None = None
+
+    def maybe_publish(self, counters: dict, state: dict) -> None:
+        """Adds state['rates']: each counter's change per second since the last status."""
+        now = time.monotonic()
+        if now < self._next:
+            return
+        self._next = now + self.period
+        rates = {}
+        if self._previous is not None:
+            then, before = self._previous
+            rates = {k: round((v - before.get(k, 0)) / (now - then), 1) for k, v in counters.items()}
+        self._previous = (now, dict(counters))
+        self._pub.put(encode(Status(self.role, self.name, os.getpid(), counters, {**state, "rates": rates})))
+
+
+def sensor_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
+    """Latest-only: drop under congestion, send at once (express)."""
+    return session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP, express=True)
+
+
+def lossless_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
+    """Lossless: reliable transport, block rather than drop under congestion."""
+    return session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK,
+                                     reliability=zenoh.Reliability.RELIABLE)
+
+
+def wait_matching(publisher: zenoh.Publisher, timeout: float, stop=None) -> bool:
+    """A put right after declaring can be lost until a subscriber is matched: wait for one."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not stop:
+        if publisher.matching_status.matching:
+            return True
+        time.sleep(0.005)
+    return publisher.matching_status.matching
+
+
+def setup_logging(role: str, name: str, level: str = "INFO") -> logging.Logger:
+    logging.basicConfig(level=level, format=f"%(asctime)s %(levelname)s {role}/{name}: %(message)s")
+    return logging.getLogger(f"dogged.{role}.{name}")
+
+
+def decode_or_reject(decode_fn, rejects: Rejects, key: str):
+    try:
+        return decode_fn()
+    except SchemaError as err:
+        rejects(key, err)
+        return None

@@ -1,0 +1,56 @@
+"""`dogged`: run a box, bring a profile up or down, list, read logs, swap a learner, switch teachers."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+
+BOXES = {name: f"services.boxes.{name}" for name in ("router", "platform", "demonstrator", "learner", "arbitrator")}
+BOXES |= {"aibo": "services.boxes.aibo", "perception": "services.boxes.perception",
+          "handler": "services.boxes.handler", "recorder": "services.boxes.recorder"}
+
+
+def run_box(argv: list[str]) -> int:
+    if not argv or argv[0] not in BOXES:
+        print(f"usage: dogged run <box> [options]; boxes: {', '.join(BOXES)}", file=sys.stderr)
+        return 2
+    return importlib.import_module(BOXES[argv[0]]).cli(argv[1:])
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["run"]:
+        return run_box(argv[1:])
+    parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
+    parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
+    parser.add_argument("--profile", default=None, help="which running profile (default: the only one)")
+    sub = parser.add_subparsers(dest="verb", required=True)
+    sub.add_parser("run", help="run one box: dogged run <box> --help")
+    up = sub.add_parser("up", help="start a router and every service of a profile; Ctrl-C stops all")
+    up.add_argument("profile_file")
+    up.add_argument("--router", default=None, help="override the profile's router endpoint")
+    up.add_argument("--quiet", action="store_true", help="do not echo service logs to the console")
+    sub.add_parser("down", help="stop a running profile")
+    sub.add_parser("ps", help="list services: pid, state, restarts, uptime, message rates")
+    logs = sub.add_parser("logs", help="one service's log")
+    logs.add_argument("service")
+    logs.add_argument("-n", "--lines", type=int, default=50)
+    swap = sub.add_parser("swap", help="hot-swap a learner: dogged swap learner <spec>")
+    swap.add_argument("what", choices=["learner"])
+    swap.add_argument("spec", help="learner name with optional params, e.g. sogp or lwpr:init_d=25")
+    swap.add_argument("--service", default="", help="which learner service (default: the only one)")
+    teach = sub.add_parser("teach", help="switch teachers on or off")
+    teach.add_argument("switch", choices=["on", "off"])
+    teach.add_argument("--teacher", default="", help="teacher name (default: every teacher)")
+    teach.add_argument("--instance", default="main")
+    args = parser.parse_args(argv)
+    if args.verb == "up":
+        from services.supervisor.commands import up
+        return up(args.profile_file, args.router, not args.quiet)
+    from services.supervisor import commands
+    return getattr(commands, args.verb)(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

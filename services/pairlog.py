@@ -1,0 +1,76 @@
+"""Every training pair a learner has incorporated, in memory and optionally in an append-only file.
+
+The file is a stream of msgpack TrainingPair payloads; a crash can cut the last record short, so
+replay stops at the first record that does not decode whole and truncates the file there.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import msgpack
+import numpy as np
+
+from bus_schema import SchemaError, TrainingPair, decode, encode
+
+
+class PairLog:
+    def __init__(self, n_in: int, n_out: int, path: str | os.PathLike | None = None):
+        self.n_in, self.n_out = n_in, n_out
+        self._x = np.empty((1024, n_in))
+        self._y = np.empty((1024, n_out))
+        self._n = 0
+        self.path = Path(path) if path else None
+        self._file = None
+
+    def __len__(self) -> int:
+        return self._n
+
+    def append(self, x: np.ndarray, y: np.ndarray, pair: TrainingPair | None = None) -> None:
+        if self._n == len(self._x):  # amortised growth: doubling
+            self._x = np.concatenate([self._x, np.empty_like(self._x)])
+            self._y = np.concatenate([self._y, np.empty_like(self._y)])
+        self._x[self._n], self._y[self._n] = x, y
+        self._n += 1
+        if self._file is not None and pair is not None:
+            self._file.write(encode(pair))
+            self._file.flush()
+
+    def extend(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        for x, y in zip(xs, ys):
+            self.append(x, y)
+
+    @property
+    def x(self) -> np.ndarray:
+        return self._x[: self._n]
+
+    @property
+    def y(self) -> np.ndarray:
+        return self._y[: self._n]
+
+    def replay_file(self) -> list[TrainingPair]:
+        """Pairs saved by an earlier run of this learner (it crashed or was restarted); opens for appending."""
+        pairs: list[TrainingPair] = []
+        if self.path is None:
+            return pairs
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        good_bytes = 0
+        if self.path.exists():
+            unpacker = msgpack.Unpacker(raw=False)
+            unpacker.feed(self.path.read_bytes())
+            try:
+                for item in unpacker:
+                    raw = msgpack.packb(item, use_bin_type=True)
+                    pairs.append(decode(TrainingPair, raw, str(self.path), {"x": self.n_in, "y": self.n_out}))
+                    good_bytes = unpacker.tell()
+            except (ValueError, SchemaError, msgpack.ExtraData):
+                pass
+            if good_bytes < self.path.stat().st_size:
+                os.truncate(self.path, good_bytes)  # drop the torn tail, keep every whole pair
+        self._file = open(self.path, "ab")
+        return pairs
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None

@@ -1,0 +1,124 @@
+"""The CLI's verbs: each one a short Zenoh conversation with a running supervisor or with teachers."""
+from __future__ import annotations
+
+import logging
+import sys
+import time
+
+import zenoh
+
+from bus_schema import ControlReply, InstanceKeys, SchemaError, TeachSwitch, decode, encode, supervisor_key
+from services.bus import lossless_publisher, wait_matching, zenoh_config
+from services.supervisor.profile import ProfileError, load_profile
+
+
+def up(profile_file: str, router: str | None, echo: bool) -> int:
+    from services.supervisor.supervisor import Supervisor
+    logging.basicConfig(level="INFO", format="%(asctime)s %(levelname)s supervisor: %(message)s")
+    try:
+        profile = load_profile(profile_file, router)
+    except ProfileError as err:
+        print(f"dogged up: {err}", file=sys.stderr)
+        return 2
+    return Supervisor(profile, echo).run()
+
+
+def _session(args):
+    return zenoh.open(zenoh_config(connect=[args.connect] if args.connect else None, mode="client"))
+
+
+def _profile(session, args) -> str | None:
+    if args.profile:
+        return args.profile
+    names = sorted({str(r.ok.key_expr).split("/")[-1]
+                    for r in session.liveliness().get("dogged/supervisor/*", timeout=2.0) if r.ok is not None})
+    if len(names) == 1:
+        return names[0]
+    print("no running profile found" if not names else f"several profiles run ({', '.join(names)}): use --profile",
+          file=sys.stderr)
+    return None
+
+
+def _ask(args, verb: str, parameters: str = "", timeout: float = 5.0) -> ControlReply | None:
+    with _session(args) as session:
+        profile = _profile(session, args)
+        if profile is None:
+            return None
+        key = supervisor_key(profile, verb)
+        for reply in session.get(f"{key}?{parameters}" if parameters else key, timeout=timeout):
+            if reply.ok is not None:
+                try:
+                    return decode(ControlReply, reply.ok.payload.to_bytes(), key)
+                except SchemaError as err:
+                    print(f"bad reply: {err}", file=sys.stderr)
+        print(f"the supervisor of {profile} did not answer {verb}", file=sys.stderr)
+        return None
+
+
+def ps(args) -> int:
+    reply = _ask(args, "ps")
+    if reply is None:
+        return 1
+    print(f"{'SERVICE':<14}{'BOX':<14}{'PID':>8}  {'STATE':<9}{'RESTARTS':>9}{'UPTIME':>9}  RATES (/s)")
+    for row in reply.data["services"]:
+        rates = " ".join(f"{k}={v:g}" for k, v in sorted(row["rates"].items()))
+        print(f"{row['name']:<14}{row['box']:<14}{row['pid']:>8}  {row['state']:<9}{row['restarts']:>9}"
+              f"{row['uptime_s']:>8.0f}s  {rates}")
+    return 0
+
+
+def logs(args) -> int:
+    reply = _ask(args, "logs", f"service={args.service};lines={args.lines}")
+    if reply is None:
+        return 1
+    print(reply.text)
+    return 0 if reply.ok else 1
+
+
+def swap(args) -> int:
+    reply = _ask(args, "swap", f"service={args.service};spec={args.spec}", timeout=180.0)
+    if reply is None:
+        return 1
+    print(reply.text)
+    return 0 if reply.ok else 1
+
+
+def down(args) -> int:
+    with _session(args) as session:
+        profile = _profile(session, args)
+        if profile is None:
+            return 1
+        key = supervisor_key(profile, "down")
+        if not any(r.ok is not None for r in session.get(key, timeout=5.0)):
+            print(f"the supervisor of {profile} did not answer", file=sys.stderr)
+            return 1
+        end = time.monotonic() + 30
+        while time.monotonic() < end:  # the supervisor's token goes when everything has stopped
+            if not any(r.ok is not None for r in session.liveliness().get(f"dogged/supervisor/{profile}", timeout=1)):
+                print(f"{profile}: stopped")
+                return 0
+            time.sleep(0.2)
+    print(f"{profile}: still stopping after 30 s", file=sys.stderr)
+    return 1
+
+
+def teach(args) -> int:
+    keys = InstanceKeys(args.instance)
+    on = args.switch == "on"
+    with _session(args) as session:
+        pub = lossless_publisher(session, keys.teach)
+        if not wait_matching(pub, 5.0):
+            print(f"no teacher listens on {keys.teach}", file=sys.stderr)
+            return 1
+        pub.put(encode(TeachSwitch(args.teacher, on)))
+        who = args.teacher or "every teacher"
+        end = time.monotonic() + 5
+        while time.monotonic() < end:  # confirmed when the teaching tokens say so
+            teaching = {str(r.ok.key_expr).split("/")[-1]
+                        for r in session.liveliness().get(f"{keys.prefix}/alive/teaching/*", timeout=1) if r.ok}
+            if (args.teacher in teaching) == on if args.teacher else bool(teaching) == on:
+                print(f"{who}: teaching {'on' if on else 'off'} ({', '.join(sorted(teaching)) or 'none teaching'})")
+                return 0
+            time.sleep(0.1)
+    print(f"{who} did not confirm teaching {'on' if on else 'off'}", file=sys.stderr)
+    return 1

@@ -1,0 +1,93 @@
+"""One supervised OS process: start, log lines prefixed to console and file, restart policy."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections import deque
+from pathlib import Path
+
+from services.supervisor.profile import ServiceSpec
+
+
+class ManagedProcess:
+    def __init__(self, spec: ServiceSpec, command: list[str], log_dir: Path, echo: bool = True):
+        self.spec, self.command, self.echo = spec, command, echo
+        self.log_path = log_dir / f"{spec.name}.log"
+        self.proc: subprocess.Popen | None = None
+        self.state = "new"           # starting | ready | backoff | failed | exited | stopped
+        self.restarts = 0
+        self.started_at = 0.0
+        self.ready_at = 0.0
+        self.restart_at = 0.0
+        self.last_exit: int | None = None
+        self.tail: deque[str] = deque(maxlen=2000)
+        self._lock = threading.Lock()
+
+    @property
+    def pid(self) -> int | None:
+        return self.proc.pid if self.proc and self.proc.poll() is None else None
+
+    def start(self) -> None:
+        self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        env = {**os.environ, **self.spec.env, "DOGGED_SUPERVISED": str(os.getpid()), "PYTHONUNBUFFERED": "1"}
+        # a new session: a Ctrl-C in the terminal reaches the supervisor only, which stops services in order
+        self.proc = subprocess.Popen(self.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     stdin=subprocess.DEVNULL, env=env, start_new_session=True)
+        self.state, self.started_at, self.ready_at = "starting", time.monotonic(), 0.0
+        self._line(f"--- started pid {self.proc.pid}: {' '.join(self.command)}")
+        threading.Thread(target=self._pump, args=(self.proc,), daemon=True).start()
+
+    def _pump(self, proc: subprocess.Popen) -> None:
+        for raw in proc.stdout:
+            self._line(raw.decode(errors="replace").rstrip("\n"))
+
+    def _line(self, text: str) -> None:
+        with self._lock:
+            self.tail.append(text)
+            with open(self.log_path, "a") as f:
+                f.write(text + "\n")
+            if self.echo:
+                sys.stdout.write(f"[{self.spec.name}] {text}\n")
+                sys.stdout.flush()
+
+    def poll(self) -> int | None:
+        """The exit code if the process has ended since the last poll, else None."""
+        if self.proc is None or self.state in ("backoff", "failed", "exited", "stopped"):
+            return None
+        code = self.proc.poll()
+        if code is not None:
+            self.last_exit = code
+            self._line(f"--- exited with {code}")
+        return code
+
+    def should_restart(self, code: int) -> bool:
+        policy = self.spec.restart
+        wanted = policy == "always" or (policy == "on-failure" and code != 0)
+        return wanted and self.restarts < self.spec.max_restarts
+
+    def schedule_restart(self) -> None:
+        delay = min(30.0, self.spec.backoff_s * (2 ** self.restarts))
+        self.restarts += 1
+        self.state, self.restart_at = "backoff", time.monotonic() + delay
+        self._line(f"--- restart {self.restarts}/{self.spec.max_restarts} in {delay:.1f} s")
+
+    def stop(self, timeout: float = 5.0) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self._line("--- did not stop within %.0f s: SIGKILL" % timeout)
+                self.proc.kill()
+                self.proc.wait()
+        self.state = "stopped"
+
+    def describe(self) -> dict:
+        alive = self.pid is not None
+        return {"name": self.spec.name, "box": self.spec.box, "pid": self.pid or 0, "state": self.state,
+                "restarts": self.restarts, "uptime_s": round(time.monotonic() - self.started_at, 1) if alive else 0.0,
+                "exit": self.last_exit if self.last_exit is not None else ""}

@@ -1,0 +1,109 @@
+"""Deploy profiles: declarative data (TOML), validated at start with errors that name the field."""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from bus_schema import check_name
+
+BOXES = ("platform", "demonstrator", "learner", "arbitrator", "aibo", "perception", "handler", "recorder")
+RESTART = ("never", "on-failure", "always")
+
+
+class ProfileError(ValueError):
+    pass
+
+
+@dataclass(frozen=True)
+class ServiceSpec:
+    name: str
+    box: str
+    instance: str
+    args: tuple[str, ...] = ()
+    restart: str = "on-failure"
+    max_restarts: int = 5
+    backoff_s: float = 0.5
+    ready_timeout_s: float = 60.0
+    env: dict = field(default_factory=dict)
+
+    @property
+    def role(self) -> str:
+        """The role in the service's liveliness token dl/<instance>/alive/<role>/<name>."""
+        if self.box == "demonstrator":
+            return "default" if "default" in self.args and "--role" in self.args else "teacher"
+        return self.box
+
+
+@dataclass(frozen=True)
+class Profile:
+    name: str
+    path: Path
+    router: str
+    log_dir: Path
+    services: tuple[ServiceSpec, ...]
+
+
+def _get(table: dict, key: str, kind, where: str, default=None, choices=None):
+    value = table.get(key, default)
+    if value is None:
+        raise ProfileError(f"{where}.{key}: required")
+    ok = isinstance(value, kind) and not (kind in (int, float, (int, float)) and isinstance(value, bool))
+    if not ok:
+        kind_name = getattr(kind, "__name__", "number")
+        raise ProfileError(f"{where}.{key}: expected {kind_name}, got {value!r}")
+    if choices and value not in choices:
+        raise ProfileError(f"{where}.{key}: expected one of {', '.join(choices)}, got {value!r}")
+    return value
+
+
+def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
+    known = {"box", "args", "instance", "restart", "max_restarts", "backoff_s", "ready_timeout_s", "env"}
+    for key in table:
+        if key not in known:
+            raise ProfileError(f"{where}.{key}: unknown field; known: {', '.join(sorted(known))}")
+    try:
+        check_name("service", name)
+    except ValueError as err:
+        raise ProfileError(f"{where}: {err}") from None
+    args = _get(table, "args", list, where, [])
+    if not all(isinstance(a, str) for a in args):
+        raise ProfileError(f"{where}.args: expected a list of strings")
+    spec = ServiceSpec(
+        name=name, box=_get(table, "box", str, where, choices=BOXES),
+        instance=_get(table, "instance", str, where, instance), args=tuple(args),
+        restart=_get(table, "restart", str, where, "on-failure", RESTART),
+        max_restarts=_get(table, "max_restarts", int, where, 5),
+        backoff_s=float(_get(table, "backoff_s", (int, float), where, 0.5)),
+        ready_timeout_s=float(_get(table, "ready_timeout_s", (int, float), where, 60.0)),
+        env={str(k): str(v) for k, v in _get(table, "env", dict, where, {}).items()})
+    if spec.max_restarts < 0 or spec.backoff_s < 0 or spec.ready_timeout_s <= 0:
+        raise ProfileError(f"{where}: max_restarts and backoff_s must be >= 0, ready_timeout_s > 0")
+    return spec
+
+
+def load_profile(path: str | Path, router: str | None = None) -> Profile:
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ProfileError(f"{path}: no such profile") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ProfileError(f"{path}: not valid TOML: {err}") from None
+    for key in data:
+        if key not in ("profile", "zenoh", "services"):
+            raise ProfileError(f"{path}: {key}: unknown table; known: profile, zenoh, services")
+    head = data.get("profile", {})
+    name = _get(head, "name", str, "profile", path.stem.replace(".", "-"))
+    instance = _get(head, "instance", str, "profile", "main")
+    try:
+        check_name("profile", name), check_name("instance", instance)
+    except ValueError as err:
+        raise ProfileError(f"profile: {err}") from None
+    log_dir = Path(_get(head, "log_dir", str, "profile", f"runs/{name}/logs"))
+    router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
+    services = data.get("services")
+    if not isinstance(services, dict) or not services:
+        raise ProfileError("services: at least one [services.<name>] table is required")
+    specs = tuple(_service(n, t if isinstance(t, dict) else {}, instance, f"services.{n}") for n, t in services.items())
+    return Profile(name, path, router, log_dir, specs)

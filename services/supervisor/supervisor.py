@@ -1,0 +1,159 @@
+"""`dogged up`: start a router and every service of a profile, watch, restart, hot-swap, stop.
+
+The supervisor is a Zenoh client of the router it started: readiness is a service's liveliness
+token, `dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<verb>.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+import time
+
+import zenoh
+
+from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, decode, encode, supervisor_key
+from services.bus import Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
+from services.supervisor.process import ManagedProcess
+from services.supervisor.profile import Profile, ServiceSpec
+
+log = logging.getLogger("dogged.supervisor")
+
+
+def box_command(box: str, *args: str) -> list[str]:
+    return [sys.executable, "-m", "services.cli", "run", box, *args]
+
+
+class Supervisor:
+    def __init__(self, profile: Profile, echo: bool = True):
+        self.profile, self.echo = profile, echo
+        self.procs: dict[str, ManagedProcess] = {}
+        self.ready_keys: dict[str, str] = {}       # liveliness key -> service name
+        self.alive: set[str] = set()
+        self.status: dict[str, dict] = {}          # "<role>/<name>" -> latest status
+        self.inbox = Inbox()
+        self.stopping = False
+        self.swap_count = 0
+        self.deferred: list = []                   # verbs that arrived during a swap
+
+    # --- processes --------------------------------------------------------------------------
+    def command_for(self, spec: ServiceSpec) -> list[str]:
+        return box_command(spec.box, "--instance", spec.instance, "--name", spec.name,
+                           "--connect", self.profile.router, *spec.args)
+
+    def add(self, spec: ServiceSpec, command: list[str] | None = None) -> ManagedProcess:
+        proc = ManagedProcess(spec, command or self.command_for(spec), self.profile.log_dir, self.echo)
+        self.procs[spec.name] = proc
+        self.ready_keys[InstanceKeys(spec.instance).alive(spec.role, spec.name)] = spec.name
+        proc.start()
+        return proc
+
+    def watch(self) -> None:
+        now = time.monotonic()
+        for proc in list(self.procs.values()):
+            code = proc.poll()
+            if code is not None and not self.stopping:
+                if proc.should_restart(code):
+                    proc.schedule_restart()
+                else:
+                    proc.state = "exited" if code == 0 else "failed"
+            if proc.state == "backoff" and now >= proc.restart_at and not self.stopping:
+                proc.start()
+            key = self.ready_key_of(proc.spec.name)
+            if proc.state == "starting" and key in self.alive and proc.pid:
+                proc.state, proc.ready_at = "ready", now
+
+    def ready_key_of(self, name: str) -> str:
+        return next(k for k, v in self.ready_keys.items() if v == name)
+
+    def all_ready(self) -> bool:
+        return all(p.state == "ready" for p in self.procs.values() if p.spec.box != "router")
+
+    # --- bus events -------------------------------------------------------------------------
+    def on_event(self, item, session) -> None:
+        tag, key, raw, kind = item
+        if tag == "alive":
+            (self.alive.add if kind == zenoh.SampleKind.PUT else self.alive.discard)(key)
+        elif tag == "status":
+            try:
+                msg = decode(Status, raw, key)
+                self.status[f"{msg.role}/{msg.name}"] = {"counters": msg.counters, "state": msg.state}
+            except ValueError:
+                pass
+        else:
+            self.on_control(key.rsplit("/", 1)[-1], raw, session)
+
+    def on_control(self, verb: str, query: zenoh.Query, session) -> None:
+        params = query.parameters
+        if verb == "ps":
+            reply = ControlReply(True, "", {"profile": self.profile.name, "services": self.ps()})
+        elif verb == "logs":
+            reply = self.logs(params.get("service", ""), int(params.get("lines", "50")))
+        elif verb == "swap":
+            reply = self.swap(session, params.get("service", ""), params.get("spec", ""))
+        else:  # down
+            self.stopping = True
+            reply = ControlReply(True, f"stopping profile {self.profile.name}", {})
+        query.reply(str(query.key_expr), encode(reply))
+
+    def ps(self) -> list[dict]:
+        rows = []
+        for proc in self.procs.values():
+            row = proc.describe()
+            status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
+            rates = status.get("state", {}).get("rates", {})
+            row["rates"] = {k: v for k, v in rates.items() if v}
+            rows.append(row)
+        return rows
+
+    def logs(self, service: str, lines: int) -> ControlReply:
+        if service not in self.procs:
+            return ControlReply(False, f"no service {service!r}; services: {', '.join(self.procs)}", {})
+        tail = list(self.procs[service].tail)[-lines:]
+        return ControlReply(True, "\n".join(tail), {"path": str(self.procs[service].log_path)})
+
+    # --- hot-swap ---------------------------------------------------------------------------
+    def swap(self, session, service: str, spec_text: str) -> ControlReply:
+        from services.supervisor.swap import swap_learner
+        return swap_learner(self, session, service, spec_text)
+
+    # --- the run ----------------------------------------------------------------------------
+    def run(self) -> int:
+        stop = StopFlag()
+        prof = self.profile
+        router = ServiceSpec("router", "router", "main", restart="on-failure")
+        self.procs["router"] = ManagedProcess(router, box_command("router", "--listen", prof.router),
+                                              prof.log_dir, self.echo)
+        self.procs["router"].start()
+        conf = zenoh_config(connect=[prof.router], mode="client")
+        with zenoh.open(conf) as session:
+            self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
+            session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"), history=True)
+            session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status"))
+            session.declare_queryable(supervisor_key(prof.name, "*"), self.inbox.query_callback("control"))
+            session.liveliness().declare_token(f"dogged/supervisor/{prof.name}")
+            for spec in prof.services:
+                self.add(spec)
+            announced, started = False, time.monotonic()
+            while not stop and not self.stopping:
+                item = self.deferred.pop(0) if self.deferred else self.inbox.get(0.05)
+                while item is not None:
+                    self.on_event(item, session)
+                    item = self.inbox.get_nowait()
+                self.watch()
+                if not announced and self.all_ready():
+                    announced = True
+                    log.info("all %d services of %s are ready (%.1f s)", len(prof.services), prof.name,
+                             time.monotonic() - started)
+            self.stopping = True
+            log.info("stopping %s", prof.name)
+            for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
+                proc.stop()
+        self.procs["router"].stop()
+        log.info("stopped; no process left")
+        return 0
+
+
+def select_learner(session, instance: str, learner: str) -> None:
+    pub = lossless_publisher(session, InstanceKeys(instance).select_learner)
+    wait_matching(pub, 5.0)
+    pub.put(encode(SelectLearner(learner)))

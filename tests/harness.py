@@ -1,0 +1,104 @@
+"""Real processes on a real router on loopback, for integration tests and benchmarks."""
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import zenoh
+
+from bus_schema import Status, decode
+from services.bus import zenoh_config
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def dogged(*args: str, log: Path | None = None, env: dict | None = None) -> subprocess.Popen:
+    out = open(log, "ab") if log else subprocess.DEVNULL
+    return subprocess.Popen([sys.executable, "-m", "services.cli", *args], cwd=REPO, stdout=out,
+                            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env={**os.environ, **(env or {})})
+
+
+def dogged_ok(*args: str, endpoint: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "services.cli", "--connect", endpoint, *args], cwd=REPO,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def stop(*procs: subprocess.Popen, timeout: float = 10) -> list[int]:
+    for p in procs:
+        if p.poll() is None:
+            p.terminate()
+    codes = []
+    for p in procs:
+        try:
+            codes.append(p.wait(timeout))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            codes.append(p.wait())
+    return codes
+
+
+class Probe:
+    """A client session in the test process: the latest status of every service, raw puts."""
+
+    def __init__(self, endpoint: str):
+        self.session = zenoh.open(zenoh_config(connect=[endpoint], mode="client"))
+        self.status: dict[str, Status] = {}
+        self.samples: dict[str, list] = {}
+        self._lock = threading.Lock()
+        self.session.declare_subscriber("dl/*/status/*/*", self._on_status)
+
+    def _on_status(self, sample):
+        try:
+            msg = decode(Status, sample.payload.to_bytes(), str(sample.key_expr))
+        except ValueError:
+            return
+        with self._lock:
+            self.status[f"{msg.role}/{msg.name}"] = msg
+
+    def record(self, key: str):
+        """Keep every payload seen on `key` (list of (key, bytes, arrival time))."""
+        bucket = self.samples.setdefault(key, [])
+        self.session.declare_subscriber(key, lambda s: bucket.append(
+            (str(s.key_expr), s.payload.to_bytes(), time.monotonic())))
+        return bucket
+
+    def counter(self, member: str, name: str, default=0):
+        with self._lock:
+            msg = self.status.get(member)
+        return msg.counters.get(name, default) if msg else default
+
+    def state(self, member: str, name: str, default=None):
+        with self._lock:
+            msg = self.status.get(member)
+        return msg.state.get(name, default) if msg else default
+
+    def wait_for(self, condition, timeout: float, what: str = "condition"):
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            value = condition()
+            if value:
+                return value
+            time.sleep(0.05)
+        raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+    def put(self, key: str, payload: bytes) -> None:
+        pub = self.session.declare_publisher(key)
+        end = time.monotonic() + 3
+        while not pub.matching_status.matching and time.monotonic() < end:
+            time.sleep(0.01)
+        pub.put(payload)
+        pub.undeclare()
+
+    def close(self):
+        self.session.close()

@@ -1,0 +1,37 @@
+import pytest
+
+from services.supervisor.profile import ProfileError, load_profile
+from tests.harness import REPO
+
+
+def write(tmp_path, text):
+    p = tmp_path / "p.toml"
+    p.write_text(text)
+    return p
+
+
+def test_shipped_profiles_are_valid():
+    for path in (REPO / "deploy").glob("*.toml"):
+        profile = load_profile(path)
+        assert profile.services, path
+
+
+@pytest.mark.parametrize("text, message", [
+    ("[services.a]\nbox = 'nonsense'", "services.a.box: expected one of"),
+    ("[services.a]\nbox = 'learner'\nrestart = 'sometimes'", "services.a.restart: expected one of never"),
+    ("[services.a]\nbox = 'learner'\nmax_restarts = 'x'", "services.a.max_restarts: expected int"),
+    ("[services.a]\nbox = 'learner'\nargs = [1]", "services.a.args: expected a list of strings"),
+    ("[services.a]\nbox = 'learner'\ncolour = 'red'", "services.a.colour: unknown field"),
+    ("[services.A]\nbox = 'learner'", "services.A: service name 'A' must be lowercase"),
+    ("[profile]\nname = 'x'", "services: at least one"),
+    ("[servics.a]\nbox = 'learner'", "servics: unknown table"),
+    ("[services.a\n", "not valid TOML"),
+])
+def test_errors_name_the_field(tmp_path, text, message):
+    with pytest.raises(ProfileError, match=message.replace("(", r"\(").replace("[", r"\[")):
+        load_profile(write(tmp_path, text))
+
+
+def test_demonstrator_role_from_args(tmp_path):
+    p = load_profile(write(tmp_path, "[services.d]\nbox='demonstrator'\nargs=['--role','default','--teacher','hold']"))
+    assert p.services[0].role == "default"
