@@ -1,0 +1,164 @@
+"""The learner contract (river's habits): hyper-parameters in the constructor under their
+own names, learned state in `_underscore` attributes, one-sample verbs, and every
+prediction carrying its confidence.
+
+A subclass declares its hyper-parameters as keyword arguments of `__init__` (immutable
+defaults), stores them under the same names, and implements `_reset`, `_learn_one`,
+`_predict_many` and `size`. Validation, batching, cloning and snapshots come from here.
+"""
+from __future__ import annotations
+
+import inspect
+import math
+import pickle
+from typing import NamedTuple
+
+import numpy as np
+
+from .errors import LearnerInputError
+
+
+class Prediction(NamedTuple):
+    y: np.ndarray  # (n_out,) float64
+    confidence: float  # in [0, 1]: how well the query is supported by experience
+    interval: np.ndarray | None = None  # (n_out,) one-sigma predictive half-width, if known
+
+
+class Predictions(NamedTuple):
+    y: np.ndarray  # (n, n_out)
+    confidence: np.ndarray  # (n,)
+    interval: np.ndarray | None = None  # (n, n_out)
+
+
+def as_vector(values, length: int, what: str) -> np.ndarray:
+    """A float64 copy-free view of `values` checked to be `length` finite numbers."""
+    array = np.asarray(values, dtype=np.float64)
+    if array.shape != (length,):
+        got = array.shape[0] if array.ndim == 1 else f"shape {array.shape}"
+        raise LearnerInputError(f"expected {length} {what}, got {got}")
+    if not np.isfinite(array).all():
+        raise LearnerInputError(describe_non_finite(array, what))
+    return array
+
+
+def as_matrix(values, width: int, what: str, rows: int | None = None) -> np.ndarray:
+    """A float64 (n, width) array of finite numbers."""
+    array = np.asarray(values, dtype=np.float64)
+    if array.ndim != 2 or array.shape[1] != width:
+        raise LearnerInputError(f"expected rows of {width} {what}, got shape {array.shape}")
+    if rows is not None and array.shape[0] != rows:
+        raise LearnerInputError(f"expected {rows} rows of {what}, got {array.shape[0]}")
+    if not np.isfinite(array).all():
+        raise LearnerInputError(describe_non_finite(array, what))
+    return array
+
+
+def describe_non_finite(array: np.ndarray, what: str) -> str:
+    """'input 3 is nan' (or 'row 5, input 3 is inf') for the first non-finite entry."""
+    index = np.argwhere(~np.isfinite(array))[0]
+    value = array[tuple(index)]
+    singular = what[:-1] if what.endswith("s") else what
+    where = f"row {index[0]}, {singular} {index[1]}" if array.ndim == 2 else f"{singular} {index[0]}"
+    return f"{where} is {value}; learners need finite numbers, check the upstream sensor or filter"
+
+
+class Learner:
+    """Base of every learner; see the module docstring for what a subclass provides."""
+
+    def __init__(self, n_in: int, n_out: int, seed: int = 0):
+        if int(n_in) < 1 or int(n_out) < 1:
+            raise ValueError(f"n_in and n_out must be positive, got {n_in} and {n_out}")
+        self.n_in = int(n_in)
+        self.n_out = int(n_out)
+        self.seed = int(seed)
+        self._n_learned = 0
+
+    # --- the contract -------------------------------------------------------------
+    def learn_one(self, x, y) -> None:
+        """Learn one (input, target) pair in place."""
+        x = as_vector(x, self.n_in, "inputs")
+        y = as_vector(y, self.n_out, "outputs")
+        self._learn_one(x, y)
+        self._n_learned += 1
+
+    def learn_many(self, xs, ys) -> None:
+        """Learn rows in order; all rows are checked before any is learned."""
+        xs = as_matrix(xs, self.n_in, "inputs")
+        ys = as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0])
+        self._learn_many(xs, ys)
+        self._n_learned += xs.shape[0]
+
+    def predict_one(self, x) -> Prediction:
+        x = as_vector(x, self.n_in, "inputs")
+        many = self._predict_many(x[None, :])
+        interval = None if many.interval is None else many.interval[0]
+        return Prediction(many.y[0], float(many.confidence[0]), interval)
+
+    def predict_many(self, xs) -> Predictions:
+        return self._predict_many(as_matrix(xs, self.n_in, "inputs"))
+
+    @property
+    def n_learned(self) -> int:
+        return self._n_learned
+
+    @property
+    def size(self) -> int:
+        raise NotImplementedError
+
+    # --- what subclasses implement --------------------------------------------------
+    def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        for x, y in zip(xs, ys):
+            self._learn_one(x, y)
+
+    def _predict_many(self, xs: np.ndarray) -> Predictions:
+        raise NotImplementedError
+
+    # --- free with the contract -------------------------------------------------------
+    @classmethod
+    def param_names(cls) -> list[str]:
+        """Hyper-parameter names: the keyword arguments of __init__ after n_in, n_out, seed."""
+        names = list(inspect.signature(cls.__init__).parameters)
+        return [name for name in names if name not in ("self", "n_in", "n_out", "seed")]
+
+    def get_params(self) -> dict:
+        return {name: getattr(self, name) for name in self.param_names()}
+
+    def clone(self) -> "Learner":
+        """A fresh, unlearned learner with the same sizes, seed and hyper-parameters."""
+        return type(self)(self.n_in, self.n_out, seed=self.seed, **self.get_params())
+
+    def snapshot(self) -> bytes:
+        return pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL)
+
+    @classmethod
+    def restore(cls, blob: bytes) -> "Learner":
+        model = pickle.loads(blob)
+        if not isinstance(model, cls):
+            raise TypeError(f"snapshot holds a {type(model).__name__}, not a {cls.__name__}")
+        return model
+
+    def __repr__(self) -> str:
+        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}(n_in={self.n_in}, n_out={self.n_out}, seed={self.seed}, {params})"
+
+
+def check_positive(name: str, value, strictly: bool = True) -> float:
+    """The value as a float, or ValueError naming the hyper-parameter."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"hyper-parameter {name} must be a number, got {value!r}") from None
+    if not math.isfinite(number) or number < 0 or (strictly and number == 0):
+        kind = "positive" if strictly else "non-negative"
+        raise ValueError(f"hyper-parameter {name} must be a finite {kind} number, got {value!r}")
+    return number
+
+
+def check_range(name: str, value, low: float, high: float) -> float:
+    number = check_positive(name, value, strictly=False) if low >= 0 else float(value)
+    if not low <= number <= high:
+        raise ValueError(f"hyper-parameter {name} must be in [{low}, {high}], got {value!r}")
+    return number

@@ -1,0 +1,80 @@
+"""The floor every comparison needs: k nearest neighbours over a bounded memory.
+
+Remembers the last max_points samples (a ring buffer, so a long stream forgets its
+oldest samples and memory stays bounded) and predicts the inverse-distance weighted
+mean of the k nearest. Confidence is a Gaussian of the nearest neighbour's distance in
+units of length_scale: 1 on a remembered input, falling to 0 far from all of them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .base import Learner, Predictions, check_positive
+
+_CHUNK = 512  # rows per distance block in predict_many: bounds its temporary memory
+
+
+class KNN(Learner):
+    def __init__(self, n_in: int, n_out: int, seed: int = 0, *, k: int = 5,
+                 max_points: int = 10000, length_scale: float | None = None):
+        super().__init__(n_in, n_out, seed)
+        self.k, self.max_points, self.length_scale = k, max_points, length_scale
+        for name in ("k", "max_points"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"hyper-parameter {name} must be a positive integer, got {value!r}")
+        # unit-scaled inputs: neighbours within ~sqrt(n_in)/2 count as familiar
+        scale = 0.5 * math.sqrt(n_in) if length_scale is None else check_positive("length_scale", length_scale)
+        self._scale = scale
+        self._xs = np.zeros((0, self.n_in))
+        self._ys = np.zeros((0, self.n_out))
+        self._next = 0  # ring position once memory is full
+
+    @classmethod
+    def _unit_test_params(cls) -> dict:
+        return {"max_points": 300}
+
+    @property
+    def size(self) -> int:
+        return self._xs.shape[0]
+
+    def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+        self._learn_many(x[None, :], y[None, :])
+
+    def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        room = self.max_points - self._xs.shape[0]
+        if room > 0:
+            take = min(room, xs.shape[0])
+            self._xs = np.concatenate([self._xs, xs[:take]])
+            self._ys = np.concatenate([self._ys, ys[:take]])
+            xs, ys = xs[take:], ys[take:]
+        for x, y in zip(xs, ys):  # memory full: overwrite the oldest
+            self._xs[self._next] = x
+            self._ys[self._next] = y
+            self._next = (self._next + 1) % self.max_points
+
+    def _predict_many(self, xs: np.ndarray) -> Predictions:
+        n = xs.shape[0]
+        if self.size == 0:
+            return Predictions(np.zeros((n, self.n_out)), np.zeros(n), np.full((n, self.n_out), np.inf))
+        ys, confidence, spread = [], [], []
+        for start in range(0, n, _CHUNK):
+            y, c, s = self._predict_chunk(xs[start:start + _CHUNK])
+            ys.append(y), confidence.append(c), spread.append(s)
+        return Predictions(np.concatenate(ys), np.concatenate(confidence), np.concatenate(spread))
+
+    def _predict_chunk(self, xs: np.ndarray):
+        d2 = ((xs * xs).sum(1)[:, None] - 2.0 * xs @ self._xs.T + (self._xs * self._xs).sum(1)[None, :])
+        np.maximum(d2, 0.0, out=d2)
+        k = min(self.k, self.size)
+        nearest = np.argpartition(d2, k - 1, axis=1)[:, :k] if k < self.size else np.tile(np.arange(k), (xs.shape[0], 1))
+        dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
+        weights = 1.0 / (dist + 1e-9)
+        weights /= weights.sum(1, keepdims=True)
+        neighbours = self._ys[nearest]  # (rows, k, n_out)
+        y = np.einsum("rk,rko->ro", weights, neighbours)
+        spread = np.sqrt(np.einsum("rk,rko->ro", weights, (neighbours - y[:, None, :]) ** 2))
+        confidence = np.exp(-0.5 * (dist.min(1) / self._scale) ** 2)
+        return y, confidence, spread

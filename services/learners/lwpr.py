@@ -1,0 +1,165 @@
+"""Locally Weighted Projection Regression (Vijayakumar, D'Souza & Schaal, Neural
+Computation 17(12), 2005): Gaussian receptive fields, each an incremental partial least
+squares regression, created where no field is active (w < w_gen), pruned where two
+overlap (w > w_prune), each adapting its distance metric by gradient descent on its
+leave-one-out cost. The numerics live in compiled kernels (lwpr_kernels); this class
+holds the state, checks inputs and grows storage.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Learner, Prediction, Predictions, as_matrix, as_vector, check_positive, check_range
+from .errors import LearnerInputError
+from . import lwpr_layout as layout
+
+_INITIAL_SLOTS = 4
+
+
+def _kernels():
+    # imported on first use so that importing services.learners stays fast
+    from . import lwpr_kernels
+    return lwpr_kernels
+
+
+class LWPR(Learner):
+    """LWPR; confidence is the strongest receptive field's activation (weakest output)."""
+
+    def __init__(self, n_in: int, n_out: int, seed: int = 0, *,
+                 init_D: float | None = None, init_alpha: float = 50.0,
+                 w_gen: float = 0.1, w_prune: float = 1.0, w_cutoff: float = 0.001,
+                 init_lambda: float = 0.995, final_lambda: float = 0.99999,
+                 tau_lambda: float = 0.9999, init_S2: float = 1e-10,
+                 add_threshold: float = 0.5, add_min_data: float | None = None,
+                 init_reg: int = 2, max_reg: int | None = None, penalty: float = 1e-6,
+                 diag_only: bool = True, update_D: bool = True, meta: bool = False,
+                 meta_rate: float = 250.0, max_rfs: int = 200, exact_fit: bool = True):
+        super().__init__(n_in, n_out, seed)
+        self.init_D = init_D
+        self.init_alpha = init_alpha
+        self.w_gen, self.w_prune, self.w_cutoff = w_gen, w_prune, w_cutoff
+        self.init_lambda, self.final_lambda, self.tau_lambda = init_lambda, final_lambda, tau_lambda
+        self.init_S2 = init_S2
+        self.add_threshold, self.add_min_data = add_threshold, add_min_data
+        self.init_reg, self.max_reg = init_reg, max_reg
+        self.penalty = penalty
+        self.diag_only, self.update_D = diag_only, update_D
+        self.meta, self.meta_rate = meta, meta_rate
+        self.max_rfs = max_rfs
+        self.exact_fit = exact_fit
+        self._hp = self._hyper_parameter_vector()
+        self._reset()
+
+    def _hyper_parameter_vector(self) -> np.ndarray:
+        """Validated hyper-parameters packed for the kernels (ValueError names a bad one)."""
+        n = self.n_in
+        hp = np.zeros(layout.N_HP)
+        # a default width that lets one field span unit-scaled data in any dimension
+        init_d = 1.0 / n if self.init_D is None else check_positive("init_D", self.init_D)
+        hp[layout.HP_INIT_D] = init_d
+        hp[layout.HP_INIT_ALPHA] = check_positive("init_alpha", self.init_alpha)
+        hp[layout.HP_W_GEN] = check_range("w_gen", self.w_gen, 0.0, 1.0)
+        hp[layout.HP_W_PRUNE] = check_range("w_prune", self.w_prune, 0.0, 1.0)
+        hp[layout.HP_W_CUTOFF] = check_range("w_cutoff", self.w_cutoff, 0.0, 1.0)
+        hp[layout.HP_INIT_LAMBDA] = check_range("init_lambda", self.init_lambda, 0.5, 1.0 - 1e-12)
+        hp[layout.HP_FINAL_LAMBDA] = check_range("final_lambda", self.final_lambda, 0.5, 1.0 - 1e-12)
+        hp[layout.HP_TAU_LAMBDA] = check_range("tau_lambda", self.tau_lambda, 0.0, 1.0)
+        hp[layout.HP_INIT_S2] = check_positive("init_S2", self.init_S2)
+        hp[layout.HP_ADD_THRESHOLD] = check_range("add_threshold", self.add_threshold, 0.0, 1.0)
+        min_data = 2.0 * n if self.add_min_data is None else self.add_min_data
+        hp[layout.HP_ADD_MIN_DATA] = check_positive("add_min_data", min_data, strictly=False)
+        hp[layout.HP_INIT_REG] = int(check_range("init_reg", self.init_reg, 1, n if n > 1 else 1))
+        max_reg = n if self.max_reg is None else self.max_reg
+        hp[layout.HP_MAX_REG] = int(check_range("max_reg", max_reg, 1, n))
+        hp[layout.HP_PENALTY] = check_positive("penalty", self.penalty, strictly=False)
+        hp[layout.HP_META_RATE] = check_positive("meta_rate", self.meta_rate, strictly=False)
+        hp[layout.HP_MAX_RFS] = int(check_positive("max_rfs", self.max_rfs))
+        for name in ("diag_only", "update_D", "meta", "exact_fit"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"hyper-parameter {name} must be True or False, got {getattr(self, name)!r}")
+        hp[layout.HP_DIAG_ONLY] = float(self.diag_only)
+        hp[layout.HP_UPDATE_D] = float(self.update_D)
+        hp[layout.HP_META] = float(self.meta)
+        hp[layout.HP_EXACT_FIT] = float(self.exact_fit)
+        return hp
+
+    def _reset(self) -> None:
+        slots = min(_INITIAL_SLOTS, int(self._hp[layout.HP_MAX_RFS]))
+        self._rfs = np.zeros((self.n_out, slots, layout.floats_per_rf(self.n_in)))
+        self._nreg = np.zeros((self.n_out, slots), dtype=np.int64)
+        self._n_rfs = np.zeros(self.n_out, dtype=np.int64)
+
+    # --- learning ---------------------------------------------------------------------
+    def learn_one(self, x, y) -> None:
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        y = np.ascontiguousarray(y, dtype=np.float64)
+        if x.shape != (self.n_in,) or y.shape != (self.n_out,):
+            as_vector(x, self.n_in, "inputs")  # raises with the right message
+            as_vector(y, self.n_out, "outputs")
+        kernels = _kernels()
+        status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
+        while status == 1:
+            self._grow()
+            status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
+        if status < 0:
+            self._reject(status, x, y)
+        self._n_learned += 1
+
+    def learn_many(self, xs, ys) -> None:
+        xs = np.ascontiguousarray(as_matrix(xs, self.n_in, "inputs"))
+        ys = np.ascontiguousarray(as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0]))
+        kernels = _kernels()
+        row = 0
+        while row < xs.shape[0]:
+            status, row = kernels.learn_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs, ys, row)
+            if status == 1:
+                self._grow()
+        self._n_learned += xs.shape[0]
+
+    def _reject(self, status: int, x: np.ndarray, y: np.ndarray) -> None:
+        index = -status - 1
+        if index < self.n_in:
+            raise LearnerInputError(f"input {index} is {x[index]}; learners need finite numbers")
+        index -= self.n_in
+        raise LearnerInputError(f"output {index} is {y[index]}; learners need finite numbers")
+
+    def _grow(self) -> None:
+        """Double the slots per output (up to max_rfs); fields keep their place."""
+        slots = self._rfs.shape[1]
+        new_slots = min(int(self._hp[layout.HP_MAX_RFS]), 2 * slots)
+        rfs = np.zeros((self.n_out, new_slots, self._rfs.shape[2]))
+        rfs[:, :slots] = self._rfs
+        nreg = np.zeros((self.n_out, new_slots), dtype=np.int64)
+        nreg[:, :slots] = self._nreg
+        self._rfs, self._nreg = rfs, nreg
+
+    # --- prediction -----------------------------------------------------------------
+    def predict_one(self, x) -> Prediction:
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if x.shape != (self.n_in,) or not np.isfinite(x).all():
+            as_vector(x, self.n_in, "inputs")
+        y, confidence, interval = _kernels().predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x)
+        return Prediction(y, confidence, interval)
+
+    def _predict_many(self, xs: np.ndarray) -> Predictions:
+        xs = np.ascontiguousarray(xs)
+        ys, confidence, intervals = _kernels().predict_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs)
+        return Predictions(ys, confidence, intervals)
+
+    # --- introspection and snapshots ----------------------------------------------------
+    @property
+    def size(self) -> int:
+        """Receptive fields over all outputs."""
+        return int(self._n_rfs.sum())
+
+    @property
+    def rfs_per_output(self) -> list[int]:
+        return [int(n) for n in self._n_rfs]
+
+    def __getstate__(self) -> dict:
+        # only used slots travel in a snapshot
+        state = dict(self.__dict__)
+        used = max(1, int(self._n_rfs.max()))
+        state["_rfs"] = self._rfs[:, :used].copy()
+        state["_nreg"] = self._nreg[:, :used].copy()
+        return state

@@ -1,0 +1,221 @@
+"""Compiled LWPR entry points: learn and predict over the whole model.
+
+Each output dimension has its own set of receptive fields (as in the reference library),
+so each output adapts its own distance metric to the inputs that matter for it.
+Status codes returned by the learning kernels: 0 done; 1 some output needs a free slot
+(the caller grows `rfs` and calls again from the returned row); -(i+1) input i is not
+finite; -(n_in+k+1) target k is not finite. Nothing is changed for a rejected sample.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from .lwpr_layout import (
+    BETA, BETA0, CENTRE, HP_DIAG_ONLY, HP_EXACT_FIT, LAMBDA, HP_INIT_REG, HP_MAX_RFS, HP_UPDATE_D, HP_W_CUTOFF,
+    HP_W_GEN, HP_W_PRUNE, MEAN_X, N_DATA, P_LOAD, SS_S2, SUM_E_CV2, SUM_W, U_DIR,
+    init_rf, mat, rls_theta, squared_distance, trace_d, vec,
+)
+from .lwpr_metric import update_metric
+from .lwpr_receptive_field import (
+    anneal_lambdas, cross_validated_errors, maybe_add_projection, update_exact_fit,
+    update_means, update_projections,
+)
+
+
+@nb.njit(cache=True)
+def update_rf(st, n, n_reg, x, y, w, hp, work):
+    """Learn (x, y) with activation w in one receptive field; returns its projection count."""
+    xmz, xres, e_cv = work[0:n], work[n:2 * n], work[2 * n:3 * n]
+    ok, mdx, pz = work[3 * n:4 * n], work[4 * n:5 * n], work[5 * n:6 * n + 1]
+    lam = vec(st, LAMBDA, n)[0]
+    update_means(st, n, x, y, w)
+    if hp[HP_EXACT_FIT] != 0.0:
+        update_exact_fit(st, n, x, y, w, lam, pz)
+    mean = vec(st, MEAN_X, n)
+    for i in range(n):
+        xmz[i] = x[i] - mean[i]
+    ymz = y - st[BETA0]
+    cross_validated_errors(st, n, n_reg, xmz, ymz, e_cv, xres)
+    e = update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres)
+    if hp[HP_UPDATE_D] != 0.0:
+        update_metric(st, n, n_reg, x, w, e_cv[n_reg - 1], e, hp[HP_DIAG_ONLY] != 0.0, hp, ok, mdx)
+    anneal_lambdas(st, n, n_reg, hp)
+    return maybe_add_projection(st, n, n_reg, hp)
+
+
+@nb.njit(cache=True)
+def update_output(rfs, nreg, n_rfs, k, x, y, hp, work):
+    """Update output k's receptive fields; create one where none is active, prune overlaps."""
+    n = x.shape[0]
+    diag_only = hp[HP_DIAG_ONLY] != 0.0
+    w_max, i_max, w_sec, i_sec = -1.0, -1, -1.0, -1
+    count = n_rfs[k]
+    for j in range(count):
+        st = rfs[k, j]
+        w = math.exp(-0.5 * squared_distance(st, n, x, diag_only))
+        if w > w_max:
+            w_sec, i_sec, w_max, i_max = w_max, i_max, w, j
+        elif w > w_sec:
+            w_sec, i_sec = w, j
+        if w > hp[HP_W_CUTOFF]:
+            nreg[k, j] = update_rf(st, n, nreg[k, j], x, y, w, hp, work)
+    if w_max <= hp[HP_W_GEN]:
+        if count < rfs.shape[1] and count < hp[HP_MAX_RFS]:
+            # the nearest field's adapted metric is the best guess for the new one
+            template = rfs[k, i_max] if i_max >= 0 else np.zeros(0)
+            st = rfs[k, count]
+            init_rf(st, n, x, template, hp)
+            nreg[k, count] = update_rf(st, n, min(n, int(hp[HP_INIT_REG])), x, y, 1.0, hp, work)
+            n_rfs[k] = count + 1
+    elif w_sec > hp[HP_W_PRUNE]:
+        # two fields claim the same data: drop the narrower one
+        victim = i_max if trace_d(rfs[k, i_max], n) > trace_d(rfs[k, i_sec], n) else i_sec
+        rfs[k, victim] = rfs[k, count - 1]
+        nreg[k, victim] = nreg[k, count - 1]
+        n_rfs[k] = count - 1
+
+
+@nb.njit(cache=True)
+def check_sample(x, y):
+    """0 when all finite, else the status code naming the first bad entry."""
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return -(i + 1)
+    for k in range(y.shape[0]):
+        if not math.isfinite(y[k]):
+            return -(x.shape[0] + k + 1)
+    return 0
+
+
+@nb.njit(cache=True)
+def needs_room(rfs, n_rfs, hp):
+    """True when an output may have to create a field but has no free slot yet."""
+    for k in range(n_rfs.shape[0]):
+        if n_rfs[k] >= rfs.shape[1] and n_rfs[k] < hp[HP_MAX_RFS]:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def learn_one(rfs, nreg, n_rfs, hp, x, y):
+    status = check_sample(x, y)
+    if status != 0:
+        return status
+    if needs_room(rfs, n_rfs, hp):
+        return 1
+    work = np.empty(6 * x.shape[0] + 1)
+    for k in range(y.shape[0]):
+        update_output(rfs, nreg, n_rfs, k, x, y[k], hp, work)
+    return 0
+
+
+@nb.njit(cache=True)
+def learn_many(rfs, nreg, n_rfs, hp, xs, ys, start):
+    """Learn rows start.. of (xs, ys); returns (status, first row not learned)."""
+    work = np.empty(6 * xs.shape[1] + 1)
+    for row in range(start, xs.shape[0]):
+        status = check_sample(xs[row], ys[row])
+        if status != 0:
+            return status, row
+        if needs_room(rfs, n_rfs, hp):
+            return 1, row
+        for k in range(ys.shape[1]):
+            update_output(rfs, nreg, n_rfs, k, xs[row], ys[row, k], hp, work)
+    return 0, xs.shape[0]
+
+
+@nb.njit(cache=True)
+def rf_prediction(st, n, n_reg, x, xres, exact):
+    """The field's local linear prediction and its predictive variance at x."""
+    n_data = vec(st, N_DATA, n)
+    # a freshly added projection is left out until it has some data behind it
+    use = n_reg - 1 if (n_reg > 1 and n_data[n_reg - 1] <= 2 * n) else n_reg
+    u, p = mat(st, U_DIR, n), mat(st, P_LOAD, n)
+    beta, ss_s2, mean = vec(st, BETA, n), vec(st, SS_S2, n), vec(st, MEAN_X, n)
+    sum_w, sum_ecv2 = vec(st, SUM_W, n), vec(st, SUM_E_CV2, n)
+    for i in range(n):
+        xres[i] = x[i] - mean[i]
+    yp = st[BETA0]
+    leverage = 1.0 / sum_w[0]
+    for r in range(use):
+        s = 0.0
+        for i in range(n):
+            s += u[r * n + i] * xres[i]
+        yp += beta[r] * s
+        leverage += s * s / ss_s2[r]
+        for i in range(n):
+            xres[i] -= s * p[r * n + i]
+    mse = sum_ecv2[use - 1] / sum_w[use - 1]
+    if exact:
+        theta, c = rls_theta(st, n), vec(st, CENTRE, n)
+        yp = theta[n]
+        for i in range(n):
+            yp += theta[i] * (x[i] - c[i])
+    return yp, mse * (1.0 + leverage)
+
+
+@nb.njit(cache=True)
+def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
+    """Output k: activation-weighted mean of the fields, strongest activation, interval."""
+    n = x.shape[0]
+    diag_only = hp[HP_DIAG_ONLY] != 0.0
+    sw, swy, swyy, swv, w_max = 0.0, 0.0, 0.0, 0.0, 0.0
+    for j in range(n_rfs[k]):
+        st = rfs[k, j]
+        w = math.exp(-0.5 * squared_distance(st, n, x, diag_only))
+        w_max = max(w_max, w)
+        if w > hp[HP_W_CUTOFF]:
+            yp, var = rf_prediction(st, n, nreg[k, j], x, xres, hp[HP_EXACT_FIT] != 0.0)
+            sw += w
+            swy += w * yp
+            swyy += w * yp * yp
+            swv += w * var
+    if sw <= 0.0:
+        return 0.0, w_max, math.inf
+    y = swy / sw
+    # spread between fields counts as uncertainty too
+    spread = max(0.0, swyy / sw - y * y)
+    return y, w_max, math.sqrt(swv / sw + spread)
+
+
+@nb.njit(cache=True)
+def predict_many(rfs, nreg, n_rfs, hp, xs):
+    """Predictions, confidences and one-sigma intervals for each row of xs.
+
+    Confidence is the strongest activation, taken for the least supported output."""
+    n_rows, n_out = xs.shape[0], n_rfs.shape[0]
+    ys = np.zeros((n_rows, n_out))
+    intervals = np.full((n_rows, n_out), math.inf)
+    confidence = np.zeros(n_rows)
+    xres = np.empty(xs.shape[1])
+    for row in range(n_rows):
+        conf = 1.0
+        for k in range(n_out):
+            y, w_max, interval = predict_output(rfs, nreg, n_rfs, k, xs[row], hp, xres)
+            ys[row, k] = y
+            intervals[row, k] = interval
+            conf = min(conf, w_max)
+        confidence[row] = conf
+    return ys, confidence, intervals
+
+
+@nb.njit(cache=True)
+def predict_one(rfs, nreg, n_rfs, hp, x):
+    n_out = n_rfs.shape[0]
+    y = np.zeros(n_out)
+    intervals = np.empty(n_out)
+    xres = np.empty(x.shape[0])
+    conf = 1.0
+    for k in range(n_out):
+        y[k], w_max, intervals[k] = predict_output(rfs, nreg, n_rfs, k, x, hp, xres)
+        conf = min(conf, w_max)
+    return y, conf, intervals
+
+
+def model_floats(rfs: np.ndarray, n_rfs: np.ndarray) -> int:
+    """Floats in use (for memory reports)."""
+    return int(n_rfs.sum()) * rfs.shape[2]
+

@@ -1,0 +1,141 @@
+"""Distance-metric adaptation: gradient descent on the RF's leave-one-out cost
+(Vijayakumar et al. 2005, section 3.2 and appendix), with optional meta-learning of the
+per-entry learning rates (incremental delta-bar-delta, Sutton 1992).
+
+D = M'M with M upper triangular keeps D positive definite whatever the step. The cost
+J = (1/W) sum w e_cv^2 + (penalty/n) sum D_ij^2 is minimised through its incremental
+approximation: dJ/dM = dJ1/dw dw/dM + (w/W) dJ2/dM.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from .lwpr_layout import (
+    ALPHA, CENTRE, H_TRACE, HP_META, HP_META_RATE, HP_PENALTY, LAMBDA, META_B, META_H,
+    METRIC_D, METRIC_M, N_DATA, R_TRACE, S_LAST, SS_S2, SUM_E2, SUM_E_CV2, SUM_W,
+    mat, vec,
+)
+
+
+@nb.njit(cache=True)
+def trusted_projections(st, n, n_reg, ok):
+    """A projection's statistics enter the gradient once it has seen 0.1/(1-lambda) samples."""
+    lam, n_data = vec(st, LAMBDA, n), vec(st, N_DATA, n)
+    for r in range(n_reg):
+        ok[r] = 1.0 if n_data[r] > 0.1 / (1.0 - lam[r]) else 0.0
+
+
+@nb.njit(cache=True)
+def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok):
+    """dJ1/dw, its second derivative (for meta-learning), the hat value h and the damping."""
+    s, ss_s2 = vec(st, S_LAST, n), vec(st, SS_S2, n)
+    h_tr, r_tr = vec(st, H_TRACE, n), vec(st, R_TRACE, n)
+    big_w = vec(st, SUM_W, n)[0]
+    big_e = vec(st, SUM_E_CV2, n)[n_reg - 1]
+    # damping while the fit is still far worse in cross-validation than in training
+    transient = min(1.0, (st[SUM_E2] / (big_e + 1e-10)) ** 4)
+    h = 0.0
+    h_pse = 0.0
+    r_ps2 = 0.0
+    s_pse = 0.0
+    for r in range(n_reg):
+        if ok[r]:
+            ps = s[r] / ss_s2[r]
+            h += w * s[r] * ps
+            h_pse += ps * e * h_tr[r]
+            r_ps2 += ps * ps * r_tr[r]
+            s_pse += s[r] * ps * e
+    e_cv2 = e_cv * e_cv
+    dj1dw = -big_e / big_w ** 2 + (e_cv2 - 2.0 * h_pse - 2.0 * r_ps2) / big_w
+    d2 = 0.0
+    for r in range(n_reg):
+        if ok[r]:
+            ps = s[r] / ss_s2[r]
+            d2 += (-ps * e / big_w - 2.0 * ps * s_pse) * h_tr[r]
+    d2j1dw2 = (-e_cv2 / big_w ** 2 - 2.0 * d2 / big_w + 2.0 * e * e * h / max(w, 1e-300) / big_w
+               - (e_cv2 - 2.0 * h_pse) / big_w ** 2 + big_e / big_w ** 3)
+    return dj1dw, d2j1dw2, h, transient
+
+
+@nb.njit(cache=True)
+def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
+    """One gradient step on M (and on the learning rates when meta is on)."""
+    trusted_projections(st, n, n_reg, ok)
+    if not ok[0]:
+        return
+    dj1dw, d2j1dw2, h, transient = cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok)
+    big_w = vec(st, SUM_W, n)[0]
+    penalty = hp[HP_PENALTY] / n
+    meta = hp[HP_META] != 0.0
+    c = vec(st, CENTRE, n)
+    m, d, alpha = mat(st, METRIC_M, n), mat(st, METRIC_D, n), mat(st, ALPHA, n)
+    b, hm = mat(st, META_B, n), mat(st, META_H, n)
+    max_m = 0.0
+    for r in range(n):  # (M dx)_r, with M upper triangular
+        acc = 0.0
+        for l in range(r, r + 1 if diag_only else n):
+            acc += m[r * n + l] * (x[l] - c[l])
+            max_m = max(max_m, abs(m[r * n + l]))
+        mdx[r] = acc
+    dwdq, d2wdq2 = -0.5 * w, 0.25 * w  # Gaussian kernel w = exp(-q/2)
+    for r in range(n):
+        row_m2 = 0.0
+        for k in range(r, n):
+            row_m2 += m[r * n + k] * m[r * n + k]
+        for l in range(r, r + 1 if diag_only else n):
+            i = r * n + l
+            dxl = x[l] - c[l]
+            md = 0.0  # (M D)_rl
+            for k in range(r, n):
+                md += m[r * n + k] * d[k * n + l]
+            dqdm = 2.0 * mdx[r] * dxl
+            dwdm = dwdq * dqdm
+            djdm = dwdm * dj1dw + w / big_w * 4.0 * penalty * md
+            if meta:
+                d2wdm2 = d2wdq2 * dqdm * dqdm + dwdq * 2.0 * dxl * dxl
+                d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[l * n + l])
+                d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w / big_w * d2j2
+                step = min(0.1, max(-0.1, hp[HP_META_RATE] * transient * djdm * hm[i]))
+                b[i] = min(10.0, max(-10.0, b[i] - step))
+                alpha[i] = math.exp(b[i])
+                hm[i] = hm[i] * max(0.0, 1.0 - alpha[i] * d2jdm2 * transient) \
+                    - alpha[i] * djdm * transient
+            delta = alpha[i] * djdm * transient
+            if delta > 0.1 * max_m:  # a step that would shrink M this much is a bad sign
+                alpha[i] *= 0.5
+                delta = 0.0
+            m[i] -= delta
+    rebuild_d(m, d, n, diag_only)
+    update_traces(st, n, n_reg, w, e_cv, h, transient, ok)
+
+
+@nb.njit(cache=True)
+def rebuild_d(m, d, n, diag_only):
+    """D = M'M."""
+    if diag_only:
+        for i in range(n):
+            d[i * n + i] = m[i * n + i] ** 2
+        return
+    for i in range(n):
+        for j in range(i, n):
+            acc = 0.0
+            for k in range(min(i, j) + 1):
+                acc += m[k * n + i] * m[k * n + j]
+            d[i * n + j] = acc
+            d[j * n + i] = acc
+
+
+@nb.njit(cache=True)
+def update_traces(st, n, n_reg, w, e_cv, h, transient, ok):
+    """The H and R memory traces of the incremental leave-one-out gradient."""
+    if h >= 1.0:
+        return
+    s, lam = vec(st, S_LAST, n), vec(st, LAMBDA, n)
+    h_tr, r_tr = vec(st, H_TRACE, n), vec(st, R_TRACE, n)
+    for r in range(n_reg):
+        if ok[r]:
+            h_tr[r] = lam[r] * h_tr[r] + w / (1.0 - h) * s[r] * e_cv * transient
+            r_tr[r] = lam[r] * r_tr[r] + w * w * e_cv * e_cv / (1.0 - h) * s[r] ** 2 * transient
+
