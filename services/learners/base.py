@@ -118,6 +118,11 @@ class Learner:
 
     # --- free with the contract -------------------------------------------------------
     @classmethod
+    def _unit_test_params(cls) -> dict:
+        """Hyper-parameters that keep the conformance checks quick (river's habit)."""
+        return {}
+
+    @classmethod
     def param_names(cls) -> list[str]:
         """Hyper-parameter names: the keyword arguments of __init__ after n_in, n_out, seed."""
         names = list(inspect.signature(cls.__init__).parameters)

@@ -1,0 +1,190 @@
+"""Conformance suite every learner must pass (river's `checks` habit).
+
+Each check takes `make(seed=0) -> Learner`, a factory of fresh learners with 3 inputs and
+2 outputs, and raises AssertionError with a reason when the learner breaks the contract.
+`tests/test_learners_conformance.py` runs every check over every registered learner.
+"""
+from __future__ import annotations
+
+import pickle
+from typing import Callable
+
+import numpy as np
+
+from .base import Learner
+from .errors import LearnerInputError
+
+Factory = Callable[..., Learner]
+N_IN, N_OUT = 3, 2
+
+
+def smooth_task(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth 3-input, 2-output map on [-1, 1]^3."""
+    xs = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, N_IN))
+    ys = np.stack([np.sin(2.0 * xs[:, 0]) + xs[:, 1], xs[:, 2] * xs[:, 0]], axis=1)
+    return xs, ys
+
+
+def trained(make: Factory, n: int = 300, seed: int = 0) -> Learner:
+    model = make(seed=seed)
+    for x, y in zip(*smooth_task(n)):
+        model.learn_one(x, y)
+    return model
+
+
+def probe_inputs() -> np.ndarray:
+    return np.vstack([smooth_task(20, seed=7)[0], np.full((1, N_IN), 6.0), np.full((1, N_IN), -40.0)])
+
+
+def check_predict_before_learn(make: Factory) -> None:
+    model = make()
+    p = model.predict_one(np.zeros(N_IN))
+    assert p.y.shape == (N_OUT,) and p.y.dtype == np.float64, "prediction must be float64 (n_out,)"
+    assert np.all(p.y == 0.0) and p.confidence == 0.0, "an unlearned model predicts zeros, confidence 0"
+    many = model.predict_many(np.zeros((4, N_IN)))
+    assert many.y.shape == (4, N_OUT) and many.confidence.shape == (4,)
+    assert model.n_learned == 0 and model.size == 0
+
+
+def check_inputs_not_mutated(make: Factory) -> None:
+    model = make()
+    xs, ys = smooth_task(50)
+    x_copy, y_copy = xs.copy(), ys.copy()
+    for x, y in zip(xs, ys):
+        model.learn_one(x, y)
+    model.learn_many(xs, ys)
+    model.predict_one(xs[0])
+    model.predict_many(xs)
+    assert np.array_equal(xs, x_copy) and np.array_equal(ys, y_copy), "learner wrote into caller's arrays"
+
+
+def check_no_aliasing(make: Factory) -> None:
+    """Changing arrays after handing them over must not change the model."""
+    model, reference = make(), make()
+    for x, y in zip(*smooth_task(60)):
+        x_mine, y_mine = x.copy(), y.copy()
+        model.learn_one(x_mine, y_mine)
+        reference.learn_one(x.copy(), y.copy())
+        x_mine[:] = 1e6
+        y_mine[:] = -1e6
+    probe = smooth_task(5, seed=3)[0]
+    p = model.predict_one(probe[0])
+    p.y[:] = 123.0  # the caller owns what it was given
+    assert np.array_equal(model.predict_many(probe).y, reference.predict_many(probe).y), "model aliases inputs"
+
+
+def check_clone_independence(make: Factory) -> None:
+    model = trained(make, 100)
+    before = model.predict_many(probe_inputs()).y
+    twin = model.clone()
+    assert type(twin) is type(model) and twin.get_params() == model.get_params()
+    assert twin.n_learned == 0 and twin.size == 0, "a clone starts unlearned"
+    for x, y in zip(*smooth_task(50, seed=5)):
+        twin.learn_one(x, -y)
+    assert np.array_equal(model.predict_many(probe_inputs()).y, before), "learning a clone changed the original"
+
+
+def check_pickle_round_trip(make: Factory) -> None:
+    model = trained(make, 150)
+    for copy in (type(model).restore(model.snapshot()), pickle.loads(pickle.dumps(model))):
+        assert_same_predictions(model, copy)
+        assert copy.n_learned == model.n_learned and copy.size == model.size
+    copy = type(model).restore(model.snapshot())
+    for x, y in zip(*smooth_task(80, seed=9)):  # and they keep learning identically
+        model.learn_one(x, y)
+        copy.learn_one(x, y)
+    assert_same_predictions(model, copy)
+
+
+def check_seeded_determinism(make: Factory) -> None:
+    assert_same_predictions(trained(make, 200, seed=4), trained(make, 200, seed=4))
+
+
+def check_learn_many_matches_learn_one(make: Factory) -> None:
+    one, many = trained(make, 120), make()
+    many.learn_many(*smooth_task(120))
+    assert_same_predictions(one, many, exact=False)
+    assert many.n_learned == one.n_learned == 120
+
+
+def check_memory_bounded(make: Factory) -> None:
+    """A long stream from a bounded region must not make the model grow without limit."""
+    model = make()
+    xs, ys = smooth_task(6000, seed=11)
+    model.learn_many(xs[:3000], ys[:3000])
+    half = len(model.snapshot())
+    model.learn_many(xs[3000:], ys[3000:])
+    assert len(model.snapshot()) <= 1.25 * half + 4096, "model kept growing on a stationary stream"
+
+
+def check_confidence_in_unit_interval(make: Factory) -> None:
+    for model in (make(), trained(make, 200)):
+        confidence = model.predict_many(probe_inputs()).confidence
+        assert np.all(np.isfinite(confidence)) and np.all((confidence >= 0) & (confidence <= 1))
+        one = model.predict_one(probe_inputs()[0]).confidence
+        assert isinstance(one, float) and 0.0 <= one <= 1.0
+
+
+def check_confidence_knows_what_it_knows(make: Factory) -> None:
+    """High on the training inputs, below the paper's 'unsure' 0.25 far from them."""
+    model = trained(make, 400)
+    on_data = model.predict_many(smooth_task(400)[0]).confidence
+    far = model.predict_many(np.array([[6.0, 6.0, 6.0], [-5.0, 4.0, -6.0]])).confidence
+    assert np.median(on_data) > 0.5, f"median confidence on training data {np.median(on_data):.2f} <= 0.5"
+    assert np.all(far < 0.25), f"confidence far from the data {far} not below 0.25"
+
+
+def check_bad_input_rejected(make: Factory) -> None:
+    model = trained(make, 60)
+    blob, before = model.snapshot(), model.predict_many(probe_inputs())
+    good_x, good_y = np.zeros(N_IN), np.zeros(N_OUT)
+    bad_xs = [np.zeros(N_IN - 1), np.zeros(N_IN + 1), np.array([0.0, np.nan, 0.0]), np.array([np.inf, 0, 0])]
+    bad_ys = [np.zeros(N_OUT + 1), np.array([0.0, np.nan]), np.array([-np.inf, 0.0])]
+    for bad in bad_xs:
+        assert_rejected(lambda: model.learn_one(bad, good_y))
+        assert_rejected(lambda: model.predict_one(bad))
+    for bad in bad_ys:
+        assert_rejected(lambda: model.learn_one(good_x, bad))
+    xs, ys = smooth_task(10)
+    xs[7, 1] = np.nan
+    assert_rejected(lambda: model.learn_many(xs, ys))
+    assert_rejected(lambda: model.learn_many(xs[:, :2], ys))
+    assert model.snapshot() == blob, "a rejected sample changed the model"
+    assert np.array_equal(model.predict_many(probe_inputs()).y, before.y)
+
+
+def check_error_messages(make: Factory) -> None:
+    model = make()
+    assert_rejected(lambda: model.learn_one(np.zeros(N_IN - 1), np.zeros(N_OUT)), f"expected {N_IN} inputs, got {N_IN - 1}")
+    assert_rejected(lambda: model.learn_one(np.array([0.0, 0.0, np.nan]), np.zeros(N_OUT)), "input 2 is nan")
+
+
+def assert_rejected(call: Callable[[], object], message: str | None = None) -> None:
+    try:
+        call()
+    except LearnerInputError as error:
+        assert message is None or message in str(error), f"message {str(error)!r} lacks {message!r}"
+        return
+    raise AssertionError("bad input was accepted")
+
+
+def assert_same_predictions(a: Learner, b: Learner, exact: bool = True) -> None:
+    pa, pb = a.predict_many(probe_inputs()), b.predict_many(probe_inputs())
+    if exact:
+        assert np.array_equal(pa.y, pb.y) and np.array_equal(pa.confidence, pb.confidence), "predictions differ"
+    else:
+        assert np.allclose(pa.y, pb.y, atol=1e-9) and np.allclose(pa.confidence, pb.confidence, atol=1e-9)
+
+
+ALL_CHECKS = [
+    check_predict_before_learn, check_inputs_not_mutated, check_no_aliasing,
+    check_clone_independence, check_pickle_round_trip, check_seeded_determinism,
+    check_learn_many_matches_learn_one, check_memory_bounded, check_confidence_in_unit_interval,
+    check_confidence_knows_what_it_knows, check_bad_input_rejected, check_error_messages,
+]
+
+
+def unit_test_factory(cls: type[Learner]) -> Factory:
+    """Fresh small learners of `cls` for the checks (small capacities keep them fast)."""
+    params = cls._unit_test_params()
+    return lambda seed=0: cls(N_IN, N_OUT, seed=seed, **params)

@@ -1,0 +1,49 @@
+"""Every registered learner against every conformance check (ids like lwpr:check_...)."""
+import pytest
+
+from services.learners import LEARNERS, LearnerInputError, UnknownLearnerError, make_learner
+from services.learners.checks import ALL_CHECKS, unit_test_factory
+
+CASES = [(name, check) for name in LEARNERS for check in ALL_CHECKS]
+
+
+@pytest.mark.parametrize("name,check", CASES, ids=[f"{n}:{c.__name__}" for n, c in CASES])
+def test_conformance(name, check):
+    check(unit_test_factory(LEARNERS[name]))
+
+
+def test_registry_names():
+    assert set(LEARNERS) >= {"lwpr", "sogp", "knn"}
+
+
+def test_unknown_learner_lists_known_names():
+    with pytest.raises(KeyError) as caught:
+        make_learner("gpr", 2, 1)
+    assert isinstance(caught.value, UnknownLearnerError)
+    assert "known learners: knn, lwpr, sogp" in str(caught.value)
+
+
+@pytest.mark.parametrize("name", sorted(LEARNERS))
+def test_unknown_hyper_parameter_is_named(name):
+    with pytest.raises(ValueError, match="unknown hyper-parameter 'flux'"):
+        make_learner(name, 2, 1, flux=3)
+
+
+@pytest.mark.parametrize("name,param,value", [
+    ("lwpr", "w_gen", 2.0), ("lwpr", "init_D", -1.0), ("lwpr", "meta", "yes"),
+    ("sogp", "capacity", 0), ("sogp", "noise_var", -1.0), ("knn", "k", 0),
+])
+def test_invalid_hyper_parameter_is_named(name, param, value):
+    with pytest.raises(ValueError, match=param):
+        make_learner(name, 2, 1, **{param: value})
+
+
+@pytest.mark.parametrize("name", sorted(LEARNERS))
+def test_params_rebuild_the_same_learner(name):
+    model = make_learner(name, 4, 2, seed=3)
+    twin = make_learner(name, 4, 2, seed=3, **model.get_params())
+    assert twin.get_params() == model.get_params() and twin.seed == 3
+
+
+def test_input_error_is_a_value_error():
+    assert issubclass(LearnerInputError, ValueError)
