@@ -1,0 +1,62 @@
+"""Every registered platform passes every conformance check; the checker catches broken platforms."""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from bus_schema.spaces import Box, Spaces
+from services.platforms import PLATFORMS, make_platform
+from services.platforms.checks import ALL_CHECKS, check_step_clips_command, check_watchdog_holds_still
+from services.platforms.point import PointPlatform
+
+# the Aibo without its camera: the checks are about the contract, not the frames
+PLATFORM_PARAMS = {"aibo": {"camera": False}}
+
+
+CASES = [(name, check) for name in sorted(PLATFORMS) for check in ALL_CHECKS]
+
+
+@pytest.mark.parametrize(("name", "check"), CASES, ids=[f"{name}:{check.__name__}" for name, check in CASES])
+def test_platform_passes_check(name, check):
+    check(functools.partial(make_platform, name, **PLATFORM_PARAMS.get(name, {})))
+
+
+class UnclippedPoint(PointPlatform):
+    """Broken on purpose: reports the command as received, not as applied."""
+
+    def step(self, command, dt):
+        super().step(command, dt)
+        return np.asarray(command, dtype=np.float64)
+
+
+class DriftingPoint(PointPlatform):
+    """Broken on purpose: the watchdog keeps following the last command."""
+
+    def step(self, command, dt):
+        self._last = np.asarray(command, dtype=np.float64)
+        return super().step(command, dt)
+
+    def hold(self, dt):
+        super().step(self._last, dt)
+
+
+def test_checker_catches_unclipped_report():
+    with pytest.raises(AssertionError) as failure:
+        check_step_clips_command(lambda seed: UnclippedPoint(dims=2, seed=seed))
+    assert str(failure.value).startswith("step() reported [")
+    assert str(failure.value).endswith("; report the command clipped to spaces.output, as applied")
+
+
+def test_checker_catches_watchdog_that_keeps_moving():
+    with pytest.raises(AssertionError) as failure:
+        check_watchdog_holds_still(lambda seed: DriftingPoint(dims=2, seed=seed))
+    message = str(failure.value)
+    assert message.startswith("hold() let ['position0', 'position1'] move by [")
+    assert message.endswith("; the watchdog must keep the robot still when commands stop")
+
+
+def test_spaces_round_trip_used_by_checker():
+    spaces = Spaces(Box.uniform(2, -1, 1, "x"), Box.uniform(1, 0, 1, "u"), {"k": 1})
+    assert Spaces.from_dict(spaces.to_dict()) == spaces
