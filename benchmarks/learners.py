@@ -1,0 +1,153 @@
+"""Benchmark every registered learner on the LWPR tutorial's cross and the paper's mirroring.
+
+Prints a table (learner x task: accuracy, size, updates/s, predictions/s), the reference
+library's figures beside ours, and as its LAST line one JSON object of the figures.
+`--quick` runs in a minute or two; progress bars go to stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from services.learners import LEARNERS, make_learner  # noqa: E402
+from services.learners.tasks import (  # noqa: E402
+    CROSS_LWPR_PARAMS, cross_grid, cross_training, mirror_samples, nmse, worst_error,
+)
+
+# Klanke, Vijayakumar & Schaal's LWPR library v1.2.6 through its Python binding, this kind of machine
+REFERENCE = {"cross_nmse": 0.043, "cross_rfs": 41, "cross_updates_per_s": 568e3,
+             "cross_predictions_per_s": 0.97e6, "mirror_samples_to_005": 9000,
+             "mirror_updates_per_s": 150e3}
+CROSS_PARAMS = {"lwpr": CROSS_LWPR_PARAMS, "sogp": {"length_scale": 0.15, "noise_var": 0.01}, "knn": {}}
+THRESHOLD = 0.05  # rad, worst case over the held-out points
+
+
+def warm_up(model, xs: np.ndarray, ys: np.ndarray) -> None:
+    """Load compiled kernels before the clock starts (first-call cost is reported apart)."""
+    twin = model.clone()
+    twin.learn_one(xs[0], ys[0])
+    twin.learn_many(xs[:2], ys[:2])
+    twin.predict_one(xs[0])
+    twin.predict_many(xs[:2])
+
+
+def bench_cross(name: str, epochs: int) -> dict:
+    xs, ys = cross_training(500, seed=0)
+    model = make_learner(name, 2, 1, seed=0, **CROSS_PARAMS.get(name, {}))
+    order = np.random.default_rng(1).permutation(np.tile(np.arange(500), epochs))
+    xs, ys = xs[order], ys[order]
+    warm_up(model, xs, ys)
+    start = time.perf_counter()
+    for x, y in tqdm(zip(xs, ys), total=len(xs), desc=f"{name} cross", leave=False, file=sys.stderr):
+        model.learn_one(x, y)
+    updates_per_s = len(xs) / (time.perf_counter() - start)
+    batch = model.clone()
+    start = time.perf_counter()
+    batch.learn_many(xs, ys)
+    batch_updates_per_s = len(xs) / (time.perf_counter() - start)
+    grid, truth = cross_grid()
+    start = time.perf_counter()
+    for x in grid:
+        model.predict_one(x)
+    predictions_per_s = len(grid) / (time.perf_counter() - start)
+    start = time.perf_counter()
+    prediction = model.predict_many(grid)
+    batch_predictions_per_s = len(grid) / (time.perf_counter() - start)
+    return {"nmse": nmse(prediction.y, truth), "rfs": model.size, "updates_per_s": updates_per_s,
+            "batch_updates_per_s": batch_updates_per_s, "predictions_per_s": predictions_per_s,
+            "batch_predictions_per_s": batch_predictions_per_s}
+
+
+def bench_mirror(name: str, samples: int) -> dict:
+    """Stream demonstrations one at a time; watch the worst held-out error."""
+    model = make_learner(name, 18, 18, seed=0)
+    xs, ys = mirror_samples(samples, seed=0)
+    held_out, truth = mirror_samples(1000, seed=1)
+    first_under, under_since, learn_time = None, None, 0.0
+    warm_up(model, xs, ys)
+    for i in tqdm(range(samples), desc=f"{name} mirror", leave=False, file=sys.stderr):
+        start = time.perf_counter()
+        model.learn_one(xs[i], ys[i])
+        learn_time += time.perf_counter() - start
+        seen = i + 1
+        if seen % (10 if seen <= 1000 else 250) == 0 or seen == samples:
+            error = worst_error(model.predict_many(held_out).y, truth)
+            if error < THRESHOLD:
+                first_under = first_under or seen
+                under_since = under_since or seen
+            else:
+                under_since = None
+    final = model.predict_many(held_out)
+    return {"samples_to_005": first_under, "stays_under_from": under_since,
+            "worst_error": worst_error(final.y, truth), "size": model.size,
+            "updates_per_s": samples / learn_time, "confidence": float(np.median(final.confidence)),
+            "snapshot_bytes": len(model.snapshot())}
+
+
+def first_call_seconds(name: str, cold: bool) -> float:
+    """Import, build, first learn_one and predict_one in a fresh process (cold: empty numba cache)."""
+    code = ("import time,numpy as np;t=time.perf_counter();from services.learners import make_learner;"
+            f"m=make_learner('{name}',18,18);m.learn_one(np.zeros(18),np.zeros(18));m.predict_one(np.zeros(18));"
+            "print(time.perf_counter()-t)")
+    env = dict(os.environ)
+    with tempfile.TemporaryDirectory() as cache:
+        if cold:
+            env["NUMBA_CACHE_DIR"] = cache
+        out = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parents[1],
+                             env=env, capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def main(quick: bool) -> dict:
+    epochs, samples = (5, 2000) if quick else (20, 15000)
+    figures: dict = {}
+    rows = []
+    for name in tqdm(list(LEARNERS), desc="learners", file=sys.stderr):
+        c = bench_cross(name, epochs)
+        m = bench_mirror(name, samples if name == "lwpr" or not quick else 1000)
+        warm = first_call_seconds(name, cold=False)
+        cold = warm if (quick or name != "lwpr") else first_call_seconds(name, cold=True)
+        for key, value in c.items():
+            figures[f"{name}_cross_{key}"] = value
+        for key, value in m.items():
+            figures[f"{name}_mirror_{key}"] = value
+        figures[f"{name}_first_call_s"], figures[f"{name}_first_call_cold_s"] = warm, cold
+        rows.append((name, c, m, warm, cold))
+    print_table(rows, epochs)
+    return figures
+
+
+def print_table(rows, epochs: int) -> None:
+    print(f"cross: 500 noisy points x {epochs} epochs, nMSE on the 41x41 noise-free grid; "
+          "mirror: 18 -> 18, worst |error| over 1000 held-out points")
+    print(f"{'learner':8} {'cross nMSE':>10} {'size':>5} {'upd/s':>9} {'upd/s batch':>11} {'pred/s':>9} "
+          f"{'pred/s batch':>12} | {'mirror <0.05 at':>15} {'stays from':>10} {'worst':>7} {'upd/s':>8} "
+          f"{'size':>5} {'MB':>6} | {'1st call s':>10}")
+    ref = REFERENCE
+    print(f"{'ref C':8} {ref['cross_nmse']:>10.3f} {ref['cross_rfs']:>5} {ref['cross_updates_per_s']:>9.0f} "
+          f"{'':>11} {ref['cross_predictions_per_s']:>9.0f} {'':>12} | {'~9000':>15} {'~14000':>10} "
+          f"{'':>7} {ref['mirror_updates_per_s']:>8.0f}")
+    for name, c, m, warm, cold in rows:
+        print(f"{name:8} {c['nmse']:>10.3f} {c['rfs']:>5} {c['updates_per_s']:>9.0f} {c['batch_updates_per_s']:>11.0f} "
+              f"{c['predictions_per_s']:>9.0f} {c['batch_predictions_per_s']:>12.0f} | "
+              f"{str(m['samples_to_005']):>15} {str(m['stays_under_from']):>10} {m['worst_error']:>7.3f} "
+              f"{m['updates_per_s']:>8.0f} {m['size']:>5} {m['snapshot_bytes'] / 1e6:>6.2f} | "
+              f"{warm:>5.2f}/{cold:.1f}")
+    print("first call = import + build + first learn/predict in a fresh process, warm/cold numba cache")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="fewer epochs and samples (a minute or two)")
+    print(json.dumps(main(parser.parse_args().quick)))
