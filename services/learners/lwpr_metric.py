@@ -81,14 +81,15 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
         mdx[r] = acc
     dwdq, d2wdq2 = -0.5 * w, 0.25 * w  # Gaussian kernel w = exp(-q/2)
     for r in range(n):
+        end = r + 1 if diag_only else n  # a diagonal M has nothing right of its diagonal
         row_m2 = 0.0
-        for k in range(r, n):
+        for k in range(r, end):
             row_m2 += m[r * n + k] * m[r * n + k]
-        for l in range(r, r + 1 if diag_only else n):
+        for l in range(r, end):
             i = r * n + l
             dxl = x[l] - c[l]
             md = 0.0  # (M D)_rl
-            for k in range(r, n):
+            for k in range(r, end):
                 md += m[r * n + k] * d[k * n + l]
             dqdm = 2.0 * mdx[r] * dxl
             dwdm = dwdq * dqdm
