@@ -11,16 +11,20 @@ from services.platforms import PLATFORMS, make_platform
 from services.platforms.checks import ALL_CHECKS, check_step_clips_command, check_watchdog_holds_still
 from services.platforms.point import PointPlatform
 
-# the Aibo without its camera: the checks are about the contract, not the frames
-PLATFORM_PARAMS = {"aibo": {"camera": False}}
+# every registered platform, plus the Aibo's second command mode; cameras off: the checks are
+# about the contract, not the frames
+VARIANTS = {name: (name, {}) for name in PLATFORMS}
+VARIANTS["aibo"] = ("aibo", {"camera": False})
+VARIANTS["aibo-move"] = ("aibo", {"camera": False, "command": "move"})
 
 
-CASES = [(name, check) for name in sorted(PLATFORMS) for check in ALL_CHECKS]
+CASES = [(variant, check) for variant in sorted(VARIANTS) for check in ALL_CHECKS]
 
 
 @pytest.mark.parametrize(("name", "check"), CASES, ids=[f"{name}:{check.__name__}" for name, check in CASES])
 def test_platform_passes_check(name, check):
-    check(functools.partial(make_platform, name, **PLATFORM_PARAMS.get(name, {})))
+    platform, params = VARIANTS[name]
+    check(functools.partial(make_platform, platform, **params))
 
 
 class UnclippedPoint(PointPlatform):

@@ -17,8 +17,9 @@ from services.platforms.aibo.joints import JOINT_LIMITS, JOINT_NAMES
 from services.platforms.aibo.sim import PHYSICS_HZ, AiboSim
 
 COMMAND_MODES = ("joints", "move")
-JOINTS_BOX = Box(tuple(JOINT_LIMITS[:, 0]), tuple(JOINT_LIMITS[:, 1]), JOINT_NAMES, ("rad",) * len(JOINT_NAMES))
-MOVE_BOX = Box(tuple(MOVE_LIMITS[:, 0]), tuple(MOVE_LIMITS[:, 1]), MOVE_NAMES, MOVE_UNITS)
+# plain floats, not numpy scalars: spaces travel as data (msgpack, JSON)
+JOINTS_BOX = Box(tuple(map(float, JOINT_LIMITS[:, 0])), tuple(map(float, JOINT_LIMITS[:, 1])), JOINT_NAMES, ("rad",) * len(JOINT_NAMES))
+MOVE_BOX = Box(tuple(map(float, MOVE_LIMITS[:, 0])), tuple(map(float, MOVE_LIMITS[:, 1])), MOVE_NAMES, MOVE_UNITS)
 
 
 class AiboPlatform:
