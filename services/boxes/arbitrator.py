@@ -143,13 +143,14 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
         if spaces is None:
             return 0
         arb = Arbitrator(session, keys, spaces, chooser, deadline_ms / 1000.0, learner, train_on, recent, log)
-        session.liveliness().declare_subscriber(keys.alive_all, inbox.callback("alive"), history=True)
-        session.declare_subscriber(keys.input, inbox.callback("input"))
-        session.declare_subscriber(keys.proposals, inbox.callback("proposal"))
-        session.declare_subscriber(keys.select_learner, inbox.callback("select"))
-        session.declare_queryable(keys.train_recent, inbox.query_callback("recent"))
+        held = []  # declarations live as long as these references (a dropped token is undeclared)
+        held.append(session.liveliness().declare_subscriber(keys.alive_all, inbox.callback("alive"), history=True))
+        held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
+        held.append(session.declare_subscriber(keys.proposals, inbox.callback("proposal")))
+        held.append(session.declare_subscriber(keys.select_learner, inbox.callback("select")))
+        held.append(session.declare_queryable(keys.train_recent, inbox.query_callback("recent")))
         status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name)
-        session.liveliness().declare_token(keys.alive("arbitrator", name))
+        held.append(session.liveliness().declare_token(keys.alive("arbitrator", name)))
         log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
                  strategy, unsure_below)
         handlers = {"input": arb.on_input, "proposal": arb.on_proposal, "select": arb.on_select}

@@ -31,10 +31,11 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
         plugin = make_teacher(teacher, spaces, **params)
         dims = {"x": spaces.input.dims}
         pub = sensor_publisher(session, keys.proposal(role, name))
-        session.declare_subscriber(keys.input, inbox.callback("input"))
-        session.declare_subscriber(keys.teach, inbox.callback("teach"))
+        held = []  # declarations live as long as these references (a dropped token is undeclared)
+        held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
+        held.append(session.declare_subscriber(keys.teach, inbox.callback("teach")))
         status = StatusPublisher(session, keys.status(role, name), role, name)
-        session.liveliness().declare_token(keys.alive(role, name))
+        held.append(session.liveliness().declare_token(keys.alive(role, name)))
         teaching = None
 
         def switch(on: bool):

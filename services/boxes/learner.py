@@ -127,7 +127,8 @@ class LearnerNode:
                                           self.pairs.y[:n])))
 
     def status(self):
-        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, size=int(self.model.size))
+        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs),
+                        size=int(self.model.size))
         return counters, {"learner": type(self.model).__name__, "epoch": self.epoch}
 
 
@@ -143,18 +144,19 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
         pairlog = PairLog(model.n_in, model.n_out, Path(state_dir) / f"{name}.pairs" if state_dir else None)
         node = LearnerNode(session, keys, name, model, pairlog, log)
         # subscribe before warming: pairs published meanwhile wait in the inbox, none is missed
-        session.declare_subscriber(keys.train, inbox.callback("train"))
+        held = []  # declarations live as long as these references (a dropped token is undeclared)
+        held.append(session.declare_subscriber(keys.train, inbox.callback("train")))
         saved = pairlog.replay_file()
         if saved:
             node.replay(saved)
             log.info("replayed %d pairs from %s", len(saved), pairlog.path)
         elif warm_from:
             node.warm_from(warm_from)
-        session.declare_subscriber(keys.input, inbox.callback("input"))
-        session.declare_queryable(keys.snapshot(name), inbox.query_callback("query"))
-        session.declare_queryable(keys.history(name), inbox.query_callback("query"))
+        held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
+        held.append(session.declare_queryable(keys.snapshot(name), inbox.query_callback("query")))
+        held.append(session.declare_queryable(keys.history(name), inbox.query_callback("query")))
         status = StatusPublisher(session, keys.status("learner", name), "learner", name)
-        session.liveliness().declare_token(keys.alive("learner", name))
+        held.append(session.liveliness().declare_token(keys.alive("learner", name)))
         log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
         while not stop:
             item, newest, pairs = inbox.get(0.1), None, []

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 import time
+from pathlib import Path
 
 import numpy as np
 import zenoh
@@ -35,6 +37,7 @@ class PlatformLoop:
         self.applied_tick = -1
         self.latencies: list[float] = [] if latency_log else None
         self.recent_latency = collections.deque(maxlen=2000)
+        self.answered: set[int] = set()
         self.mode = ""
 
     def publish_input(self):
@@ -47,6 +50,7 @@ class PlatformLoop:
         if msg is None:
             return
         self.counts["commands"] += 1
+        self.answered.add(msg.tick)
         latency = time.time() - msg.stamp
         self.recent_latency.append(latency)
         if self.latencies is not None:
@@ -72,6 +76,11 @@ class PlatformLoop:
             self.platform.hold(dt)  # watchdog: nothing fresh, hold still
             self.counts["held"] += 1
 
+    def summary(self) -> dict:
+        answered = len([t for t in self.answered if t <= self.tick])
+        return {"ticks": self.tick, "commands": self.counts["commands"], "answered": answered,
+                "unanswered": self.tick - answered, "held": self.counts["held"], "rejected": self.rejects.total}
+
     def status(self):
         lat = np.array(self.recent_latency) * 1e3 if self.recent_latency else np.zeros(1)
         counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick)
@@ -82,16 +91,17 @@ class PlatformLoop:
 
 def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: str = "platform",
          rate_hz: float = 30.0, sim_hz: float = 30.0, watchdog: float = 0.5, max_ticks: int = 0,
-         latency_log: str | None = None) -> int:
+         latency_log: str | None = None, summary: str | None = None) -> int:
     log = setup_logging("platform", name)
     stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
     with make_platform(platform, **params) as robot, zenoh.open(conf) as session:
         loop = PlatformLoop(session, keys, robot, log, latency_log)
         spaces_payload = encode(SpacesMessage(robot.spaces.to_dict()))
-        session.declare_queryable(keys.spaces, inbox.query_callback("spaces"))
-        session.declare_subscriber(keys.command, inbox.callback("command"))
+        held = []  # declarations live as long as these references (a dropped token is undeclared)
+        held.append(session.declare_queryable(keys.spaces, inbox.query_callback("spaces")))
+        held.append(session.declare_subscriber(keys.command, inbox.callback("command")))
         status = StatusPublisher(session, keys.status("platform", name), "platform", name)
-        session.liveliness().declare_token(keys.alive("platform", name))
+        held.append(session.liveliness().declare_token(keys.alive("platform", name)))
         log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
                  robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
         period = 1.0 / rate_hz if rate_hz else None
@@ -120,6 +130,8 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
             status.maybe_publish(*loop.status())
         if latency_log:
             np.save(latency_log, np.array(loop.latencies))
+        if summary:
+            Path(summary).write_text(json.dumps(loop.summary()))
         log.info("stopping after %d ticks, %d commands", loop.tick, loop.counts["commands"])
     return 0
 
@@ -135,7 +147,8 @@ def cli(argv=None) -> int:
     parser.add_argument("--watchdog", type=float, default=0.5, help="seconds without a fresh command before holding still")
     parser.add_argument("--max-ticks", type=int, default=0, help="stop after this many ticks (0: run until stopped)")
     parser.add_argument("--latency-log", default=None, help="save every tick latency (s) to this .npy file at exit")
+    parser.add_argument("--summary", default=None, help="write tick counts (JSON) to this file at exit")
     add_bus_args(parser)
     args = parser.parse_args(argv)
     return main(config_from_args(args), args.instance, args.platform, parse_params(args.param), args.name,
-                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log)
+                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log, args.summary)

@@ -13,7 +13,8 @@ def main(listen: list[str]) -> int:
     log = setup_logging("router", "router")
     stop = StopFlag()
     with zenoh.open(zenoh_config(listen=listen, mode="router")) as session:
-        session.liveliness().declare_token("dogged/router")
+        held = []  # declarations live as long as these references (a dropped token is undeclared)
+        held.append(session.liveliness().declare_token("dogged/router"))
         log.info("routing on %s", ", ".join(listen))
         while not stop:
             time.sleep(0.2)

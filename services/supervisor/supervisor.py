@@ -127,10 +127,13 @@ class Supervisor:
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
             self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
-            session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"), history=True)
-            session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status"))
-            session.declare_queryable(supervisor_key(prof.name, "*"), self.inbox.query_callback("control"))
-            session.liveliness().declare_token(f"dogged/supervisor/{prof.name}")
+            held = []  # declarations live as long as these references (a dropped token is undeclared)
+            held.append(session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"),
+                                                                history=True))
+            held.append(session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status")))
+            held.append(session.declare_queryable(supervisor_key(prof.name, "*"),
+                                                  self.inbox.query_callback("control")))
+            held.append(session.liveliness().declare_token(f"dogged/supervisor/{prof.name}"))
             for spec in prof.services:
                 self.add(spec)
             announced, started = False, time.monotonic()

@@ -1,0 +1,48 @@
+"""A teacher is switched on, then off, and the student reproduces the taught mapping (real processes)."""
+import numpy as np
+import pytest
+
+from bus_schema import Command, Input, decode
+from tests.harness import Probe, dogged, dogged_ok, stop
+
+
+def sine_teacher(x):  # services.teachers.functions.SineTeacher with its defaults, dims=2
+    return 0.8 * np.sin(1.5 * x[[1, 0]])
+
+
+@pytest.mark.parametrize("learner", ["lwpr", "knn"])
+def test_teach_on_then_off_student_reproduces(router, tmp_path, learner):
+    connect = ["--connect", router]
+    procs = [dogged("run", "platform", "--platform", "point", "--param", "dims=2", "--param", "wander_hz=2.0",
+                    "--rate", "100", *connect, log=tmp_path / "platform.log"),
+             dogged("run", "demonstrator", "--teacher", "sine", "--param", "frequency=1.5", *connect,
+                    log=tmp_path / "teacher.log"),
+             dogged("run", "learner", "--learner", learner, *connect, log=tmp_path / "learner.log"),
+             dogged("run", "arbitrator", *connect, log=tmp_path / "arbitrator.log")]
+    probe = Probe(router)
+    try:
+        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "commands") > 50, 60, "the loop to run")
+        unsure = probe.counter("arbitrator/arbitrator", "mode_unsure")
+        assert unsure > 0, "an untaught student must say it is unsure"
+        result = dogged_ok("teach", "on", "--teacher", "sine", endpoint=router)
+        assert result.returncode == 0, result.stderr
+        assert "teaching on" in result.stdout
+        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "train_pairs") >= 1500, 60, "1500 pairs")
+        assert dogged_ok("teach", "off", endpoint=router).returncode == 0
+        inputs, commands, pairs = (probe.record(f"dl/main/{k}") for k in ("input", "command", "train"))
+        probe.wait_for(lambda: len(commands) >= 400, 30, "400 commands after teaching")
+        assert pairs == [], "the teacher is off: no training pair may follow"
+        taught = probe.counter("arbitrator/arbitrator", "train_pairs")
+        xs = {m.tick: m.x for m in (decode(Input, raw, k, {"x": 4}) for k, raw, _ in inputs)}
+        cmds = [decode(Command, raw, k, {"y": 2}) for k, raw, _ in commands]
+        judged = [(c, xs[c.tick]) for c in cmds[50:] if c.tick in xs]
+        assert len(judged) >= 300
+        student = [c for c, _ in judged if c.mode == "student"]
+        assert len(student) >= 0.9 * len(judged), f"{len(student)} of {len(judged)} ticks in student mode"
+        errors = np.array([c.y - sine_teacher(x) for c, x in judged])
+        rms = float(np.sqrt(np.mean(errors ** 2)))
+        print(f"{learner}: {taught} pairs taught, student RMS error {rms:.4f} over {len(judged)} ticks")
+        assert rms < 0.1
+    finally:
+        probe.close()
+        assert stop(*procs) == [0, 0, 0, 0]
