@@ -16,10 +16,16 @@ from . import lwpr_layout as layout
 _INITIAL_SLOTS = 4
 
 
+_loaded_kernels = None
+
+
 def _kernels():
     # imported on first use so that importing services.learners stays fast
-    from . import lwpr_kernels
-    return lwpr_kernels
+    global _loaded_kernels
+    if _loaded_kernels is None:
+        from . import lwpr_kernels
+        _loaded_kernels = lwpr_kernels
+    return _loaded_kernels
 
 
 class LWPR(Learner):
@@ -96,7 +102,7 @@ class LWPR(Learner):
         if x.shape != (self.n_in,) or y.shape != (self.n_out,):
             as_vector(x, self.n_in, "inputs")  # raises with the right message
             as_vector(y, self.n_out, "outputs")
-        kernels = _kernels()
+        kernels = _loaded_kernels or _kernels()
         status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
         while status == 1:
             self._grow()
@@ -136,9 +142,12 @@ class LWPR(Learner):
     # --- prediction -----------------------------------------------------------------
     def predict_one(self, x) -> Prediction:
         x = np.ascontiguousarray(x, dtype=np.float64)
-        if x.shape != (self.n_in,) or not np.isfinite(x).all():
+        if x.shape != (self.n_in,):
             as_vector(x, self.n_in, "inputs")
-        y, confidence, interval = _kernels().predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x)
+        kernels = _loaded_kernels or _kernels()
+        y, confidence, interval = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x)
+        if confidence < 0.0:  # the kernel found a non-finite input
+            as_vector(x, self.n_in, "inputs")
         return Prediction(y, confidence, interval)
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:

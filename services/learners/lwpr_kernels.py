@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 
 from .lwpr_layout import (
+    FAST_MATH,
     BETA, BETA0, CENTRE, HP_DIAG_ONLY, HP_EXACT_FIT, LAMBDA, HP_INIT_REG, HP_MAX_RFS, HP_UPDATE_D, HP_W_CUTOFF,
     HP_W_GEN, HP_W_PRUNE, MEAN_X, N_DATA, P_LOAD, SS_S2, SUM_E_CV2, SUM_W, U_DIR,
     init_rf, mat, rls_theta, squared_distance, trace_d, vec,
@@ -25,15 +26,16 @@ from .lwpr_receptive_field import (
 )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def update_rf(st, n, n_reg, x, y, w, hp, work):
     """Learn (x, y) with activation w in one receptive field; returns its projection count."""
     xmz, xres, e_cv = work[0:n], work[n:2 * n], work[2 * n:3 * n]
-    ok, mdx, pz = work[3 * n:4 * n], work[4 * n:5 * n], work[5 * n:6 * n + 1]
+    ok, mdx = work[3 * n:4 * n], work[4 * n:5 * n]
+    z, pz = work[5 * n:6 * n + 1], work[6 * n + 1:7 * n + 2]
     lam = vec(st, LAMBDA, n)[0]
     update_means(st, n, x, y, w)
     if hp[HP_EXACT_FIT] != 0.0:
-        update_exact_fit(st, n, x, y, w, lam, pz)
+        update_exact_fit(st, n, x, y, w, lam, z, pz)
     mean = vec(st, MEAN_X, n)
     for i in range(n):
         xmz[i] = x[i] - mean[i]
@@ -46,7 +48,7 @@ def update_rf(st, n, n_reg, x, y, w, hp, work):
     return maybe_add_projection(st, n, n_reg, hp)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def update_output(rfs, nreg, n_rfs, k, x, y, hp, work):
     """Update output k's receptive fields; create one where none is active, prune overlaps."""
     n = x.shape[0]
@@ -78,7 +80,7 @@ def update_output(rfs, nreg, n_rfs, k, x, y, hp, work):
         n_rfs[k] = count - 1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def check_sample(x, y):
     """0 when all finite, else the status code naming the first bad entry."""
     for i in range(x.shape[0]):
@@ -90,7 +92,7 @@ def check_sample(x, y):
     return 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def needs_room(rfs, n_rfs, hp):
     """True when an output may have to create a field but has no free slot yet."""
     for k in range(n_rfs.shape[0]):
@@ -99,23 +101,23 @@ def needs_room(rfs, n_rfs, hp):
     return False
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def learn_one(rfs, nreg, n_rfs, hp, x, y):
     status = check_sample(x, y)
     if status != 0:
         return status
     if needs_room(rfs, n_rfs, hp):
         return 1
-    work = np.empty(6 * x.shape[0] + 1)
+    work = np.empty(7 * x.shape[0] + 2)
     for k in range(y.shape[0]):
         update_output(rfs, nreg, n_rfs, k, x, y[k], hp, work)
     return 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def learn_many(rfs, nreg, n_rfs, hp, xs, ys, start):
     """Learn rows start.. of (xs, ys); returns (status, first row not learned)."""
-    work = np.empty(6 * xs.shape[1] + 1)
+    work = np.empty(7 * xs.shape[1] + 2)
     for row in range(start, xs.shape[0]):
         status = check_sample(xs[row], ys[row])
         if status != 0:
@@ -127,7 +129,7 @@ def learn_many(rfs, nreg, n_rfs, hp, xs, ys, start):
     return 0, xs.shape[0]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def rf_prediction(st, n, n_reg, x, xres, exact):
     """The field's local linear prediction and its predictive variance at x."""
     n_data = vec(st, N_DATA, n)
@@ -157,7 +159,7 @@ def rf_prediction(st, n, n_reg, x, xres, exact):
     return yp, mse * (1.0 + leverage)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     """Output k: activation-weighted mean of the fields, strongest activation, interval."""
     n = x.shape[0]
@@ -181,7 +183,7 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     return y, w_max, math.sqrt(swv / sw + spread)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def predict_many(rfs, nreg, n_rfs, hp, xs):
     """Predictions, confidences and one-sigma intervals for each row of xs.
 
@@ -202,11 +204,15 @@ def predict_many(rfs, nreg, n_rfs, hp, xs):
     return ys, confidence, intervals
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def predict_one(rfs, nreg, n_rfs, hp, x):
+    """Like predict_many for one input; confidence -1 flags a non-finite input (nothing done)."""
     n_out = n_rfs.shape[0]
     y = np.zeros(n_out)
-    intervals = np.empty(n_out)
+    intervals = np.full(n_out, math.inf)
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return y, -1.0, intervals
     xres = np.empty(x.shape[0])
     conf = 1.0
     for k in range(n_out):

@@ -14,6 +14,10 @@ import math
 import numba as nb
 import numpy as np
 
+# Reassociation lets LLVM vectorise the dot products; no-NaN/no-inf flags are left out
+# on purpose because the kernels test for non-finite inputs and return inf intervals.
+FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
 # --- scalars
 BETA0, SUM_E2 = 0, 1
 N_SCALARS = 4  # two spare slots keep room for additions without changing offsets of vectors
@@ -43,33 +47,33 @@ def floats_per_rf(n: int) -> int:
     return N_SCALARS + N_VECTORS * n + N_MATRICES * n * n + (n + 1) * (n + 2)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", fastmath=FAST_MATH)
 def vec(st, field, n):
     start = N_SCALARS + field * n
     return st[start:start + n]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", fastmath=FAST_MATH)
 def mat(st, field, n):
     start = N_SCALARS + N_VECTORS * n + field * n * n
     return st[start:start + n * n]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", fastmath=FAST_MATH)
 def rls_theta(st, n):
     """Coefficients of the exact local fit on [x - c, 1] (n + 1 entries)."""
     start = N_SCALARS + N_VECTORS * n + N_MATRICES * n * n
     return st[start:start + n + 1]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", fastmath=FAST_MATH)
 def rls_inverse(st, n):
     """Its (n + 1)-square inverse weighted covariance, row-major."""
     start = N_SCALARS + N_VECTORS * n + N_MATRICES * n * n + n + 1
     return st[start:start + (n + 1) * (n + 1)]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def init_rf(st, n, x, template, hp):
     """Blank receptive field centred on x; metric and learning rates from `template` if given."""
     st[:] = 0.0
@@ -98,7 +102,7 @@ def init_rf(st, n, x, template, hp):
     mat(st, META_B, n)[:] = math.log(hp[HP_INIT_ALPHA])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def squared_distance(st, n, x, diag_only):
     """(x - c)' D (x - c): the receptive field's Mahalanobis distance to x."""
     c, d = vec(st, CENTRE, n), mat(st, METRIC_D, n)
@@ -117,7 +121,7 @@ def squared_distance(st, n, x, diag_only):
     return q
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def trace_d(st, n):
     d = mat(st, METRIC_D, n)
     t = 0.0

@@ -13,13 +13,14 @@ import math
 import numba as nb
 
 from .lwpr_layout import (
+    FAST_MATH,
     ALPHA, CENTRE, H_TRACE, HP_META, HP_META_RATE, HP_PENALTY, LAMBDA, META_B, META_H,
     METRIC_D, METRIC_M, N_DATA, R_TRACE, S_LAST, SS_S2, SUM_E2, SUM_E_CV2, SUM_W,
     mat, vec,
 )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def trusted_projections(st, n, n_reg, ok):
     """A projection's statistics enter the gradient once it has seen 0.1/(1-lambda) samples."""
     lam, n_data = vec(st, LAMBDA, n), vec(st, N_DATA, n)
@@ -27,7 +28,7 @@ def trusted_projections(st, n, n_reg, ok):
         ok[r] = 1.0 if n_data[r] > 0.1 / (1.0 - lam[r]) else 0.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok):
     """dJ1/dw, its second derivative (for meta-learning), the hat value h and the damping."""
     s, ss_s2 = vec(st, S_LAST, n), vec(st, SS_S2, n)
@@ -59,7 +60,7 @@ def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok):
     return dj1dw, d2j1dw2, h, transient
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
     """One gradient step on M (and on the learning rates when meta is on)."""
     trusted_projections(st, n, n_reg, ok)
@@ -112,7 +113,7 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
     update_traces(st, n, n_reg, w, e_cv, h, transient, ok)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def rebuild_d(m, d, n, diag_only):
     """D = M'M."""
     if diag_only:
@@ -128,7 +129,7 @@ def rebuild_d(m, d, n, diag_only):
             d[j * n + i] = acc
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def update_traces(st, n, n_reg, w, e_cv, h, transient, ok):
     """The H and R memory traces of the incremental leave-one-out gradient."""
     if h >= 1.0:

@@ -12,6 +12,7 @@ import math
 import numba as nb
 
 from .lwpr_layout import (
+    FAST_MATH,
     BETA, BETA0, HP_ADD_MIN_DATA, HP_ADD_THRESHOLD, HP_FINAL_LAMBDA, HP_INIT_LAMBDA,
     HP_INIT_S2, HP_MAX_REG, HP_TAU_LAMBDA, LAMBDA, MEAN_X, N_DATA, P_LOAD, S_LAST,
     SS_S2, SS_XRES, SS_XRES_YRES, SS_YRES, SUM_E2, SUM_E_CV2, SUM_W, U_DIR, VAR_X,
@@ -19,7 +20,7 @@ from .lwpr_layout import (
 )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def update_means(st, n, x, y, w):
     """Forgetting weighted mean and variance of x and mean of y (the RF's offset beta0)."""
     lam = vec(st, LAMBDA, n)[0]
@@ -34,7 +35,7 @@ def update_means(st, n, x, y, w):
     st[BETA0] = (old * st[BETA0] + w * y) / new
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def cross_validated_errors(st, n, n_reg, xmz, ymz, e_cv, xres):
     """Errors of the RF's prediction with 1..n_reg projections, before this sample is learned."""
     u, p, beta = mat(st, U_DIR, n), mat(st, P_LOAD, n), vec(st, BETA, n)
@@ -50,7 +51,7 @@ def cross_validated_errors(st, n, n_reg, xmz, ymz, e_cv, xres):
             xres[i] -= s * p[r * n + i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres):
     """Incremental PLS: each projection regresses the residual left by the previous ones.
 
@@ -94,7 +95,7 @@ def update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres):
     return yres
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def anneal_lambdas(st, n, n_reg, hp):
     """Move each projection's forgetting factor towards final_lambda."""
     lam = vec(st, LAMBDA, n)
@@ -103,7 +104,7 @@ def anneal_lambdas(st, n, n_reg, hp):
         lam[r] = tau * lam[r] + final * (1.0 - tau)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST_MATH)
 def maybe_add_projection(st, n, n_reg, hp):
     """Add a projection once the newest one has enough data and still pays off.
 
@@ -128,35 +129,38 @@ def maybe_add_projection(st, n, n_reg, hp):
     return n_reg + 1
 
 
-@nb.njit(cache=True)
-def update_exact_fit(st, n, x, y, w, lam, pz):
-    """Weighted recursive least squares of y on [x - c, 1], forgetting like the projections.
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def update_exact_fit(st, n, x, y, w, lam, z, pz):
+    """Weighted recursive least squares of y on z = [x - c, 1], forgetting like the projections.
 
     Incremental PLS converges slowly when many inputs are irrelevant, because early
     statistics were gathered along directions that later moved; the exact fit needs
     only n + 1 well-spread samples, which is what a few seconds of demonstration give."""
     c, theta, inverse = vec(st, CENTRE, n), rls_theta(st, n), rls_inverse(st, n)
     m = n + 1
-    for i in range(m):
-        acc = inverse[i * m + n]
-        for j in range(n):
-            acc += inverse[i * m + j] * (x[j] - c[j])
-        pz[i] = acc
-    denom = lam / w
-    err = y - theta[n]
     for i in range(n):
-        denom += (x[i] - c[i]) * pz[i]
-        err -= theta[i] * (x[i] - c[i])
-    denom += pz[n]
-    trace = 0.0
+        z[i] = x[i] - c[i]
+    z[n] = 1.0
+    denom = lam / w
+    err = y
+    for i in range(m):  # plain row-times-vector loops: they vectorise
+        acc = 0.0
+        row = i * m
+        for j in range(m):
+            acc += inverse[row + j] * z[j]
+        pz[i] = acc
+        denom += z[i] * acc
+        err -= theta[i] * z[i]
     inv_denom, inv_lam = 1.0 / denom, 1.0 / lam
+    trace = 0.0
     for i in range(m):
-        theta[i] += pz[i] * inv_denom * err
         gain = pz[i] * inv_denom
-        for j in range(i, m):  # symmetric: update one triangle, mirror it
-            value = (inverse[i * m + j] - gain * pz[j]) * inv_lam
-            inverse[i * m + j] = value
-            inverse[j * m + i] = value
-        trace += inverse[i * m + i]
+        theta[i] += gain * err
+        row = i * m
+        for j in range(m):
+            inverse[row + j] = (inverse[row + j] - gain * pz[j]) * inv_lam
+        trace += inverse[row + i]
     if trace > m * RLS_PRIOR:  # inputs that never vary would otherwise wind the inverse up
-        inverse *= m * RLS_PRIOR / trace
+        scale = m * RLS_PRIOR / trace
+        for i in range(m * m):
+            inverse[i] *= scale

@@ -11,8 +11,8 @@ import numpy as np
 HEAD_TILT, HEAD_PAN, TAIL_TILT, TAIL_PAN = 12, 13, 16, 17
 N_JOINTS = 18
 
-# the LWPR tutorial's settings for cross (the reference figures were measured with them)
-CROSS_LWPR_PARAMS = {"init_D": 50.0, "init_alpha": 250.0}
+# the LWPR tutorial's settings for cross: full metric with meta-learned rates
+CROSS_LWPR_PARAMS = {"init_D": 25.0, "init_alpha": 250.0, "w_gen": 0.2, "diag_only": False, "meta": True}
 
 
 def cross(xs: np.ndarray) -> np.ndarray:
