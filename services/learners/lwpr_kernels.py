@@ -53,17 +53,21 @@ def update_output(rfs, nreg, n_rfs, k, x, y, hp, work):
     """Update output k's receptive fields; create one where none is active, prune overlaps."""
     n = x.shape[0]
     diag_only = hp[HP_DIAG_ONLY] != 0.0
-    w_max, i_max, w_sec, i_sec = -1.0, -1, -1.0, -1
+    # compare squared distances, not activations: exp only for fields that will learn
+    q_cut = -2.0 * math.log(hp[HP_W_CUTOFF]) if hp[HP_W_CUTOFF] > 0.0 else math.inf
+    q_min, i_max, q_sec, i_sec = math.inf, -1, math.inf, -1
     count = n_rfs[k]
     for j in range(count):
         st = rfs[k, j]
-        w = math.exp(-0.5 * squared_distance(st, n, x, diag_only))
-        if w > w_max:
-            w_sec, i_sec, w_max, i_max = w_max, i_max, w, j
-        elif w > w_sec:
-            w_sec, i_sec = w, j
-        if w > hp[HP_W_CUTOFF]:
-            nreg[k, j] = update_rf(st, n, nreg[k, j], x, y, w, hp, work)
+        q = squared_distance(st, n, x, diag_only)
+        if q < q_min:
+            q_sec, i_sec, q_min, i_max = q_min, i_max, q, j
+        elif q < q_sec:
+            q_sec, i_sec = q, j
+        if q < q_cut:
+            nreg[k, j] = update_rf(st, n, nreg[k, j], x, y, math.exp(-0.5 * q), hp, work)
+    w_max = math.exp(-0.5 * q_min) if i_max >= 0 else -1.0
+    w_sec = math.exp(-0.5 * q_sec) if i_sec >= 0 else -1.0
     if w_max <= hp[HP_W_GEN]:
         if count < rfs.shape[1] and count < hp[HP_MAX_RFS]:
             # the nearest field's adapted metric is the best guess for the new one
@@ -164,17 +168,20 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     """Output k: activation-weighted mean of the fields, strongest activation, interval."""
     n = x.shape[0]
     diag_only = hp[HP_DIAG_ONLY] != 0.0
-    sw, swy, swyy, swv, w_max = 0.0, 0.0, 0.0, 0.0, 0.0
+    sw, swy, swyy, swv, q_min = 0.0, 0.0, 0.0, 0.0, math.inf
+    q_cut = -2.0 * math.log(hp[HP_W_CUTOFF]) if hp[HP_W_CUTOFF] > 0.0 else math.inf
     for j in range(n_rfs[k]):
         st = rfs[k, j]
-        w = math.exp(-0.5 * squared_distance(st, n, x, diag_only))
-        w_max = max(w_max, w)
-        if w > hp[HP_W_CUTOFF]:
+        q = squared_distance(st, n, x, diag_only)
+        q_min = min(q_min, q)
+        if q < q_cut:
+            w = math.exp(-0.5 * q)
             yp, var = rf_prediction(st, n, nreg[k, j], x, xres, hp[HP_EXACT_FIT] != 0.0)
             sw += w
             swy += w * yp
             swyy += w * yp * yp
             swv += w * var
+    w_max = math.exp(-0.5 * q_min)
     if sw <= 0.0:
         return 0.0, w_max, math.inf
     y = swy / sw
