@@ -145,7 +145,8 @@ class LWPR(Learner):
         if x.shape != (self.n_in,):
             as_vector(x, self.n_in, "inputs")
         kernels = _loaded_kernels or _kernels()
-        y, confidence, interval = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x)
+        y, interval = np.empty(self.n_out), np.empty(self.n_out)
+        confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval)
         if confidence < 0.0:  # the kernel found a non-finite input
             as_vector(x, self.n_in, "inputs")
         return Prediction(y, confidence, interval)

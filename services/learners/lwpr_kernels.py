@@ -212,20 +212,19 @@ def predict_many(rfs, nreg, n_rfs, hp, xs):
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def predict_one(rfs, nreg, n_rfs, hp, x):
-    """Like predict_many for one input; confidence -1 flags a non-finite input (nothing done)."""
-    n_out = n_rfs.shape[0]
-    y = np.zeros(n_out)
-    intervals = np.full(n_out, math.inf)
+def predict_one(rfs, nreg, n_rfs, hp, x, y, intervals):
+    """Like predict_many for one input, filling the caller's y and intervals (returning
+    arrays from numba costs more than the prediction); returns the confidence, or -1
+    for a non-finite input (then nothing is computed)."""
     for i in range(x.shape[0]):
         if not math.isfinite(x[i]):
-            return y, -1.0, intervals
+            return -1.0
     xres = np.empty(x.shape[0])
     conf = 1.0
-    for k in range(n_out):
+    for k in range(n_rfs.shape[0]):
         y[k], w_max, intervals[k] = predict_output(rfs, nreg, n_rfs, k, x, hp, xres)
         conf = min(conf, w_max)
-    return y, conf, intervals
+    return conf
 
 
 def model_floats(rfs: np.ndarray, n_rfs: np.ndarray) -> int:
