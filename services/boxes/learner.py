@@ -132,6 +132,13 @@ class LearnerNode:
         return counters, {"learner": type(self.model).__name__, "epoch": self.epoch}
 
 
+def compile_kernels(model) -> None:
+    """Run a throw-away copy once, so compiled kernels are built before this learner says it is ready."""
+    scratch = model.clone()
+    scratch.learn_one(np.zeros(model.n_in), np.zeros(model.n_out))
+    scratch.predict_one(np.zeros(model.n_in))
+
+
 def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: str = "learner", seed: int = 0,
          state_dir: str | None = None, warm_from: str | None = None) -> int:
     log = setup_logging("learner", name)
@@ -141,6 +148,7 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
         if spaces is None:
             return 0
         model = make_learner(learner, n_in=spaces.input.dims, n_out=spaces.output.dims, seed=seed, **params)
+        compile_kernels(model)
         pairlog = PairLog(model.n_in, model.n_out, Path(state_dir) / f"{name}.pairs" if state_dir else None)
         node = LearnerNode(session, keys, name, model, pairlog, log)
         # subscribe before warming: pairs published meanwhile wait in the inbox, none is missed

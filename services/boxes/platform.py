@@ -102,17 +102,23 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
         held.append(session.declare_subscriber(keys.command, inbox.callback("command")))
         status = StatusPublisher(session, keys.status("platform", name), "platform", name)
         held.append(session.liveliness().declare_token(keys.alive("platform", name)))
+        held.append(session.liveliness().declare_subscriber(f"{keys.prefix}/alive/arbitrator/*",
+                                                            inbox.callback("arbitrator"), history=True))
         log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
                  robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
         period = 1.0 / rate_hz if rate_hz else None
         dt = period or 1.0 / sim_hz
         next_tick = time.monotonic()
+        arbitrators: set[str] = set()
         while not stop:
             now = time.monotonic()
+            waiting = not arbitrators and loop.tick == 0  # no loop yet: hold still, lose no tick
+            if waiting:
+                next_tick = now + 0.05
             answered = loop.latest is not None and loop.latest.tick >= loop.tick
             if max_ticks and loop.tick >= max_ticks and (answered or now >= next_tick + watchdog):
                 break  # the last tick is answered (or will never be): done
-            if now >= next_tick or (period is None and answered):
+            if not waiting and (now >= next_tick or (period is None and answered)):
                 if loop.tick:
                     loop.advance(dt, watchdog)
                 if not (max_ticks and loop.tick >= max_ticks):
@@ -121,9 +127,11 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
                 next_tick = max(next_tick + period, now) if period else now + watchdog
             item = inbox.get(max(0.0, next_tick - time.monotonic()))
             while item is not None:
-                tag, key, raw, _ = item
+                tag, key, raw, kind = item
                 if tag == "spaces":
                     raw.reply(keys.spaces, spaces_payload)
+                elif tag == "arbitrator":
+                    (arbitrators.add if kind == zenoh.SampleKind.PUT else arbitrators.discard)(key)
                 else:
                     loop.on_command(key, raw)
                 item = inbox.get_nowait()

@@ -1,6 +1,7 @@
 """The CLI's verbs: each one a short Zenoh conversation with a running supervisor or with teachers."""
 from __future__ import annotations
 
+import json
 import logging
 import sys
 import time
@@ -59,6 +60,9 @@ def ps(args) -> int:
     reply = _ask(args, "ps")
     if reply is None:
         return 1
+    if args.json:
+        print(json.dumps(reply.data))
+        return 0
     print(f"{'SERVICE':<14}{'BOX':<14}{'PID':>8}  {'STATE':<9}{'RESTARTS':>9}{'UPTIME':>9}  RATES (/s)")
     for row in reply.data["services"]:
         rates = " ".join(f"{k}={v:g}" for k, v in sorted(row["rates"].items()))

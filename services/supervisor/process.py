@@ -17,6 +17,7 @@ class ManagedProcess:
     def __init__(self, spec: ServiceSpec, command: list[str], log_dir: Path, echo: bool = True):
         self.spec, self.command, self.echo = spec, command, echo
         self.log_path = log_dir / f"{spec.name}.log"
+        self.ready_key: str | None = None  # the liveliness token that says the service is ready
         self.proc: subprocess.Popen | None = None
         self.state = "new"           # starting | ready | backoff | failed | exited | stopped
         self.restarts = 0

@@ -27,7 +27,6 @@ class Supervisor:
     def __init__(self, profile: Profile, echo: bool = True):
         self.profile, self.echo = profile, echo
         self.procs: dict[str, ManagedProcess] = {}
-        self.ready_keys: dict[str, str] = {}       # liveliness key -> service name
         self.alive: set[str] = set()
         self.status: dict[str, dict] = {}          # "<role>/<name>" -> latest status
         self.inbox = Inbox()
@@ -42,8 +41,8 @@ class Supervisor:
 
     def add(self, spec: ServiceSpec, command: list[str] | None = None) -> ManagedProcess:
         proc = ManagedProcess(spec, command or self.command_for(spec), self.profile.log_dir, self.echo)
+        proc.ready_key = InstanceKeys(spec.instance).alive(spec.role, spec.name)
         self.procs[spec.name] = proc
-        self.ready_keys[InstanceKeys(spec.instance).alive(spec.role, spec.name)] = spec.name
         proc.start()
         return proc
 
@@ -58,12 +57,8 @@ class Supervisor:
                     proc.state = "exited" if code == 0 else "failed"
             if proc.state == "backoff" and now >= proc.restart_at and not self.stopping:
                 proc.start()
-            key = self.ready_key_of(proc.spec.name)
-            if proc.state == "starting" and key in self.alive and proc.pid:
+            if proc.state == "starting" and proc.ready_key in self.alive and proc.pid:
                 proc.state, proc.ready_at = "ready", now
-
-    def ready_key_of(self, name: str) -> str:
-        return next(k for k, v in self.ready_keys.items() if v == name)
 
     def all_ready(self) -> bool:
         return all(p.state == "ready" for p in self.procs.values() if p.spec.box != "router")

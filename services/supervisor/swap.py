@@ -85,7 +85,6 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
         return ControlReply(False, f"the arbitrator did not confirm {new_name}; both learners keep running", {})
     old.stop()
     del sup.procs[old.spec.name]
-    sup.ready_keys = {k: v for k, v in sup.ready_keys.items() if v != old.spec.name}
     return ControlReply(True, f"{new_name} ({learner}) serves in place of {old.spec.name} "
                               f"(warm in {warm_s:.1f} s)", {"new": new_name, "old": old.spec.name})
 

@@ -1,0 +1,67 @@
+"""Hot-swap learners during a 200 Hz run: no tick unanswered, no training pair lost (counted)."""
+import json
+import time
+
+from tests.harness import Probe, dogged, dogged_ok, free_port
+from tests.test_supervisor import ps, wait
+
+TICKS = 4000  # 20 s at 200 Hz
+
+PROFILE = """
+[profile]
+name = "swaptest"
+log_dir = "{logs}"
+
+[services.platform]
+box = "platform"
+args = ["--platform", "point", "--param", "dims=2", "--rate", "200", "--max-ticks", "{ticks}", "--summary", "{summary}"]
+restart = "never"
+
+[services.teacher]
+box = "demonstrator"
+args = ["--teacher", "sine", "--on"]
+
+[services.learner]
+box = "learner"
+args = ["--learner", "lwpr"]
+
+[services.arbitrator]
+box = "arbitrator"
+"""
+
+
+def test_swap_learners_during_200hz_run(tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    summary = tmp_path / "summary.json"
+    profile = tmp_path / "swaptest.toml"
+    profile.write_text(PROFILE.format(logs=tmp_path / "logs", ticks=TICKS, summary=summary))
+    sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
+    probe = Probe(endpoint)
+    try:
+        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "train_pairs") > 300, 90, "the loop running")
+        # another class: the new learner trains on the pairs seen so far
+        cross = dogged_ok("swap", "learner", "knn", endpoint=endpoint, timeout=120)
+        assert cross.returncode == 0, cross.stdout + cross.stderr
+        assert "learner-s1 (knn) serves in place of learner" in cross.stdout
+        # the same class: the new learner restores the old one's snapshot
+        same = dogged_ok("swap", "learner", "knn:k=3", endpoint=endpoint, timeout=120)
+        assert same.returncode == 0, same.stdout + same.stderr
+        assert set(ps(endpoint)) == {"router", "platform", "teacher", "learner-s2", "arbitrator"}
+        wait(lambda: summary.exists(), 60, "the platform to finish its ticks")
+        time.sleep(2.5)  # two status periods: the final counters are out
+        counts = json.loads(summary.read_text())
+        assert counts["ticks"] == TICKS and counts["unanswered"] == 0, counts
+        assert probe.counter("arbitrator/arbitrator", "swaps") == 2
+        published = probe.state("arbitrator/arbitrator", "seq")
+        assert published == probe.counter("arbitrator/arbitrator", "train_pairs") > 0.9 * TICKS
+        serving = "learner/learner-s2"
+        assert probe.counter(serving, "warmed") > 300
+        assert probe.counter(serving, "seq") == published
+        assert probe.counter(serving, "pairs") == published, "every pair reaches the serving learner"
+        assert probe.counter(serving, "pairs_lost") == 0
+        print(f"{TICKS} ticks all answered; {published} pairs, all in {serving}; "
+              f"gap-filled {probe.counter(serving, 'gap_filled')}, duplicates {probe.counter(serving, 'duplicates')}")
+    finally:
+        probe.close()
+        dogged_ok("down", endpoint=endpoint)
+        assert sup.wait(60) == 0

@@ -1,0 +1,94 @@
+"""`dogged up` brings up real processes; a learner killed with SIGKILL comes back; `dogged down` leaves none."""
+import json
+import os
+import signal
+import time
+
+from tests.harness import Probe, dogged, dogged_ok, free_port
+
+PROFILE = """
+[profile]
+name = "suptest"
+log_dir = "{logs}"
+
+[services.platform]
+box = "platform"
+args = ["--platform", "point", "--param", "dims=2", "--rate", "100"]
+
+[services.teacher]
+box = "demonstrator"
+args = ["--teacher", "sine", "--on"]
+
+[services.learner]
+box = "learner"
+args = ["--learner", "knn", "--state-dir", "{state}"]
+restart = "always"
+backoff_s = 0.2
+
+[services.arbitrator]
+box = "arbitrator"
+"""
+
+
+def ps(endpoint):
+    result = dogged_ok("ps", "--json", endpoint=endpoint)
+    return {row["name"]: row for row in json.loads(result.stdout)["services"]} if result.returncode == 0 else {}
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+        return True
+    except ProcessLookupError:
+        return False
+
+
+def wait(condition, timeout, what):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.2)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def test_up_ps_sigkill_restart_down(tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    profile = tmp_path / "suptest.toml"
+    profile.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state"))
+    sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
+    probe = None
+    try:
+        rows = wait(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()) and r,
+                    90, "every service ready")
+        assert set(rows) == {"router", "platform", "teacher", "learner", "arbitrator"}
+        pids = {name: row["pid"] for name, row in rows.items()}
+        assert len(set(pids.values())) == 5 and all(alive(p) for p in pids.values())
+        text = dogged_ok("ps", endpoint=endpoint).stdout
+        assert "learner" in text and "ready" in text
+
+        probe = Probe(endpoint)
+        probe.wait_for(lambda: probe.counter("learner/learner", "pairs") > 100, 30, "100 pairs learned")
+        os.kill(pids["learner"], signal.SIGKILL)
+        row = wait(lambda: (r := ps(endpoint).get("learner")) and r["restarts"] == 1 and r["state"] == "ready" and r,
+                   60, "the learner restarted")
+        assert row["pid"] != pids["learner"] and alive(row["pid"])
+        # the restarted learner replayed its pair log and serves the loop again
+        probe.wait_for(lambda: probe.counter("learner/learner", "replayed") > 100, 30, "the pair log replayed")
+        before = probe.counter("learner/learner", "proposals")
+        probe.wait_for(lambda: probe.counter("learner/learner", "proposals") > before + 100, 30, "proposals again")
+        assert probe.counter("learner/learner", "pairs_lost") == 0
+
+        logs = dogged_ok("logs", "learner", "-n", "400", endpoint=endpoint)
+        assert "exited with -9" in logs.stdout and "replayed" in logs.stdout
+    finally:
+        if probe:
+            probe.close()
+        down = dogged_ok("down", endpoint=endpoint)
+        code = sup.wait(60)
+    assert down.returncode == 0, down.stderr
+    assert code == 0
+    time.sleep(0.5)
+    leftovers = [name for name, pid in pids.items() if alive(pid)]
+    assert leftovers == [], f"orphans: {leftovers}"
