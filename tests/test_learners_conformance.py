@@ -47,3 +47,8 @@ def test_params_rebuild_the_same_learner(name):
 
 def test_input_error_is_a_value_error():
     assert issubclass(LearnerInputError, ValueError)
+
+
+def test_warm_up_builds_every_learner():
+    from services.learners import warm_up
+    assert warm_up() >= 0.0

@@ -33,7 +33,25 @@ def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parame
     return cls(n_in, n_out, seed=seed, **hyper_parameters)
 
 
+def warm_up() -> float:
+    """Compile (or load from numba's cache) every learner's kernels; returns the seconds taken.
+
+    A service calls this before it goes live so that the first real sample is not slow."""
+    import time
+
+    import numpy as np
+
+    start = time.perf_counter()
+    for cls in LEARNERS.values():
+        model = cls(2, 1)
+        model.learn_one(np.zeros(2), np.zeros(1))
+        model.learn_many(np.zeros((2, 2)), np.zeros((2, 1)))
+        model.predict_one(np.zeros(2))
+        model.predict_many(np.zeros((2, 2)))
+    return time.perf_counter() - start
+
+
 __all__ = [
     "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "Prediction", "Predictions",
-    "SOGP", "UnknownLearnerError", "make_learner",
+    "SOGP", "UnknownLearnerError", "make_learner", "warm_up",
 ]

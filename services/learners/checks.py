@@ -73,6 +73,18 @@ def check_no_aliasing(make: Factory) -> None:
     assert np.array_equal(model.predict_many(probe).y, reference.predict_many(probe).y), "model aliases inputs"
 
 
+def check_read_only_inputs(make: Factory) -> None:
+    """Arrays decoded from a bus payload are often read-only; they must be accepted."""
+    model = make()
+    xs, ys = smooth_task(20)
+    xs.setflags(write=False)
+    ys.setflags(write=False)
+    model.learn_one(xs[0], ys[0])
+    model.learn_many(xs, ys)
+    model.predict_one(xs[0])
+    model.predict_many(xs)
+
+
 def check_clone_independence(make: Factory) -> None:
     model = trained(make, 100)
     before = model.predict_many(probe_inputs()).y
@@ -177,7 +189,7 @@ def assert_same_predictions(a: Learner, b: Learner, exact: bool = True) -> None:
 
 
 ALL_CHECKS = [
-    check_predict_before_learn, check_inputs_not_mutated, check_no_aliasing,
+    check_predict_before_learn, check_inputs_not_mutated, check_no_aliasing, check_read_only_inputs,
     check_clone_independence, check_pickle_round_trip, check_seeded_determinism,
     check_learn_many_matches_learn_one, check_memory_bounded, check_confidence_in_unit_interval,
     check_confidence_knows_what_it_knows, check_bad_input_rejected, check_error_messages,

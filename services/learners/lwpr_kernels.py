@@ -5,6 +5,8 @@ so each output adapts its own distance metric to the inputs that matter for it.
 Status codes returned by the learning kernels: 0 done; 1 some output needs a free slot
 (the caller grows `rfs` and calls again from the returned row); -(i+1) input i is not
 finite; -(n_in+k+1) target k is not finite. Nothing is changed for a rejected sample.
+Entry points release the GIL (nogil) so a service's other threads keep running; a model
+must still be used from one thread at a time.
 """
 from __future__ import annotations
 
@@ -105,7 +107,7 @@ def needs_room(rfs, n_rfs, hp):
     return False
 
 
-@nb.njit(cache=True, fastmath=FAST_MATH)
+@nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
 def learn_one(rfs, nreg, n_rfs, hp, x, y):
     status = check_sample(x, y)
     if status != 0:
@@ -118,7 +120,7 @@ def learn_one(rfs, nreg, n_rfs, hp, x, y):
     return 0
 
 
-@nb.njit(cache=True, fastmath=FAST_MATH)
+@nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
 def learn_many(rfs, nreg, n_rfs, hp, xs, ys, start):
     """Learn rows start.. of (xs, ys); returns (status, first row not learned)."""
     work = np.empty(7 * xs.shape[1] + 2)
@@ -190,7 +192,7 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     return y, w_max, math.sqrt(swv / sw + spread)
 
 
-@nb.njit(cache=True, fastmath=FAST_MATH)
+@nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
 def predict_many(rfs, nreg, n_rfs, hp, xs):
     """Predictions, confidences and one-sigma intervals for each row of xs.
 
@@ -211,7 +213,7 @@ def predict_many(rfs, nreg, n_rfs, hp, xs):
     return ys, confidence, intervals
 
 
-@nb.njit(cache=True, fastmath=FAST_MATH)
+@nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
 def predict_one(rfs, nreg, n_rfs, hp, x, y, intervals):
     """Like predict_many for one input, filling the caller's y and intervals (returning
     arrays from numba costs more than the prediction); returns the confidence, or -1

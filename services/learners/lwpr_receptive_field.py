@@ -28,11 +28,12 @@ def update_means(st, n, x, y, w):
     old = lam * sum_w[0]
     new = old + w
     mean, var = vec(st, MEAN_X, n), vec(st, VAR_X, n)
+    inv = 1.0 / new
     for i in range(n):
-        mean[i] = (old * mean[i] + w * x[i]) / new
+        mean[i] = (old * mean[i] + w * x[i]) * inv
         dx = x[i] - mean[i]
-        var[i] = (old * var[i] + w * dx * dx) / new
-    st[BETA0] = (old * st[BETA0] + w * y) / new
+        var[i] = (old * var[i] + w * dx * dx) * inv
+    st[BETA0] = (old * st[BETA0] + w * y) * inv
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
@@ -68,25 +69,31 @@ def update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres):
         lam = lam_v[r]
         row = r * n
         norm = 0.0
+        dot = 0.0  # sxy . xres, so s needs no second pass over the new direction
         for i in range(n):
-            sxy[row + i] = lam * sxy[row + i] + w * yres * xres[i]
-            norm += sxy[row + i] * sxy[row + i]
+            value = lam * sxy[row + i] + w * yres * xres[i]
+            sxy[row + i] = value
+            norm += value * value
+            dot += value * xres[i]
         if norm > 0.0:
             inv = 1.0 / math.sqrt(norm)
             for i in range(n):
                 u[row + i] = sxy[row + i] * inv
-        s = 0.0
-        for i in range(n):
-            s += u[row + i] * xres[i]
+            s = dot * inv
+        else:
+            s = 0.0
+            for i in range(n):
+                s += u[row + i] * xres[i]
         ss_s2[r] = lam * ss_s2[r] + w * s * s
         ss_y[r] = lam * ss_y[r] + w * yres * s
-        beta[r] = ss_y[r] / ss_s2[r]
+        inv_ss = 1.0 / ss_s2[r]
+        beta[r] = ss_y[r] * inv_ss
         for i in range(n):
-            sxx[row + i] = lam * sxx[row + i] + w * xres[i] * s
-            p[row + i] = sxx[row + i] / ss_s2[r]
-        yres -= s * beta[r]
-        for i in range(n):
+            value = lam * sxx[row + i] + w * xres[i] * s
+            sxx[row + i] = value
+            p[row + i] = value * inv_ss
             xres[i] -= s * p[row + i]
+        yres -= s * beta[r]
         s_last[r] = s
         sum_ecv2[r] = lam * sum_ecv2[r] + w * e_cv[r] * e_cv[r]
         sum_w[r] = lam * sum_w[r] + w
