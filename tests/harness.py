@@ -93,7 +93,9 @@ class Probe:
         raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
     def put(self, key: str, payload: bytes) -> None:
-        pub = self.session.declare_publisher(key)
+        # lossless on purpose: a test counts what arrives, so the sender must not drop under congestion
+        pub = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK,
+                                             reliability=zenoh.Reliability.RELIABLE)
         end = time.monotonic() + 3
         while not pub.matching_status.matching and time.monotonic() < end:
             time.sleep(0.01)
