@@ -39,13 +39,13 @@ class LWPR(Learner):
     """LWPR; confidence is the strongest receptive field's activation (weakest output)."""
 
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *,
-                 init_D: float | None = None, init_alpha: float = 50.0,
+                 init_D: float | None = None, init_alpha: float = 250.0,
                  w_gen: float = 0.1, w_prune: float = 1.0, w_cutoff: float = 0.001,
                  init_lambda: float = 0.995, final_lambda: float = 0.99999,
                  tau_lambda: float = 0.9999, init_S2: float = 1e-10,
                  add_threshold: float = 0.5, add_min_data: float | None = None,
                  init_reg: int = 2, max_reg: int | None = None, penalty: float = 1e-6,
-                 diag_only: bool = True, update_D: bool = True, meta: bool = False,
+                 diag_only: bool = True, update_D: bool = True, meta: bool = True,
                  meta_rate: float = 250.0, max_rfs: int = 200, exact_fit: bool = True):
         super().__init__(n_in, n_out, seed)
         self.init_D = init_D
@@ -67,8 +67,9 @@ class LWPR(Learner):
         """Validated hyper-parameters packed for the kernels (ValueError names a bad one)."""
         n = self.n_in
         hp = np.zeros(layout.N_HP)
-        # a default width that lets one field span unit-scaled data in any dimension
-        init_d = 1.0 / n if self.init_D is None else check_positive("init_D", self.init_D)
+        # a default width that scales with the dimension: in n unit-scaled inputs one field
+        # spans the data along irrelevant inputs yet is local enough to start adapting
+        init_d = 4.0 / n if self.init_D is None else check_positive("init_D", self.init_D)
         hp[layout.HP_INIT_D] = init_d
         hp[layout.HP_INIT_ALPHA] = check_positive("init_alpha", self.init_alpha)
         hp[layout.HP_W_GEN] = check_range("w_gen", self.w_gen, 0.0, 1.0)
