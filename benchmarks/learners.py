@@ -22,7 +22,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
 from services.learners.tasks import (  # noqa: E402
-    CROSS_LWPR_PARAMS, cross_grid, cross_training, mirror_samples, nmse, worst_error,
+    CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse,
+    three_outputs, three_outputs_samples, worst_error,
 )
 
 # Klanke, Vijayakumar & Schaal's LWPR library v1.2.6 through its Python binding, this kind of machine
@@ -95,6 +96,25 @@ def bench_mirror(name: str, samples: int) -> dict:
             "snapshot_bytes": len(model.snapshot())}
 
 
+def bench_untuned(name: str, samples: int) -> dict:
+    """Default hyper-parameters on maps neither task above tunes for: cross among 8
+    irrelevant inputs, and 3 outputs of 12 inputs each using different ones."""
+    figures = {}
+    for task, (xs, ys), truth_of, n_in in (
+        ("cross10", cross_embedded(samples, seed=2), lambda x: cross(x[:, :2]), 10),
+        ("multi3", three_outputs_samples(samples, seed=3), three_outputs, 12),
+    ):
+        model = make_learner(name, n_in, ys.shape[1], seed=0)
+        start = time.perf_counter()
+        model.learn_many(xs, ys)
+        seconds = time.perf_counter() - start
+        test = np.random.default_rng(4).uniform(-1.0, 1.0, (2000, n_in))
+        figures[f"{task}_nmse"] = nmse(model.predict_many(test).y, truth_of(test))
+        figures[f"{task}_size"] = model.size
+        figures[f"{task}_batch_updates_per_s"] = samples / seconds
+    return figures
+
+
 def first_call_seconds(name: str, cold: bool) -> float:
     """Import, build, first learn_one and predict_one in a fresh process (cold: empty numba cache)."""
     code = ("import time,numpy as np;t=time.perf_counter();from services.learners import make_learner;"
@@ -116,14 +136,16 @@ def main(quick: bool) -> dict:
     for name in tqdm(list(LEARNERS), desc="learners", file=sys.stderr):
         c = bench_cross(name, epochs)
         m = bench_mirror(name, samples if name == "lwpr" or not quick else 1000)
+        u = bench_untuned(name, 2000 if quick else 5000)
         warm = first_call_seconds(name, cold=False)
         cold = warm if (quick or name != "lwpr") else first_call_seconds(name, cold=True)
         for key, value in c.items():
             figures[f"{name}_cross_{key}"] = value
         for key, value in m.items():
             figures[f"{name}_mirror_{key}"] = value
+        figures.update({f"{name}_{key}": value for key, value in u.items()})
         figures[f"{name}_first_call_s"], figures[f"{name}_first_call_cold_s"] = warm, cold
-        rows.append((name, c, m, warm, cold))
+        rows.append((name, c, m, u, warm, cold))
     print_table(rows, epochs)
     return figures
 
@@ -138,13 +160,19 @@ def print_table(rows, epochs: int) -> None:
     print(f"{'ref C':8} {ref['cross_nmse']:>10.3f} {ref['cross_rfs']:>5} {ref['cross_updates_per_s']:>9.0f} "
           f"{'':>11} {ref['cross_predictions_per_s']:>9.0f} {'':>12} | {'~9000':>15} {'~14000':>10} "
           f"{'':>7} {ref['mirror_updates_per_s']:>8.0f}")
-    for name, c, m, warm, cold in rows:
+    for name, c, m, _, warm, cold in rows:
         print(f"{name:8} {c['nmse']:>10.3f} {c['rfs']:>5} {c['updates_per_s']:>9.0f} {c['batch_updates_per_s']:>11.0f} "
               f"{c['predictions_per_s']:>9.0f} {c['batch_predictions_per_s']:>12.0f} | "
               f"{str(m['samples_to_005']):>15} {str(m['stays_under_from']):>10} {m['worst_error']:>7.3f} "
               f"{m['updates_per_s']:>8.0f} {m['size']:>5} {m['snapshot_bytes'] / 1e6:>6.2f} | "
               f"{warm:>5.2f}/{cold:.1f}")
     print("first call = import + build + first learn/predict in a fresh process, warm/cold numba cache")
+    print()
+    print("default hyper-parameters (no tuning): cross10 = cross among 8 irrelevant inputs, "
+          "multi3 = 12 inputs -> 3 outputs; nMSE on 2000 held-out points")
+    print(f"{'learner':8} {'cross10 nMSE':>12} {'size':>5} {'multi3 nMSE':>12} {'size':>5}")
+    for name, _, _, u, _, _ in rows:
+        print(f"{name:8} {u['cross10_nmse']:>12.3f} {u['cross10_size']:>5} {u['multi3_nmse']:>12.3f} {u['multi3_size']:>5}")
 
 
 if __name__ == "__main__":

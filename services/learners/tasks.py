@@ -48,9 +48,30 @@ def mirror_samples(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
 
 
 def nmse(predicted: np.ndarray, truth: np.ndarray) -> float:
-    """Mean squared error over the variance of the truth."""
-    return float(np.mean((predicted - truth) ** 2) / np.var(truth))
+    """Mean squared error over the variance of the truth, averaged over outputs."""
+    truth = truth.reshape(len(truth), -1)
+    error = (predicted.reshape(truth.shape) - truth) ** 2
+    return float(np.mean(error.mean(axis=0) / truth.var(axis=0)))
 
 
 def worst_error(predicted: np.ndarray, truth: np.ndarray) -> float:
     return float(np.max(np.abs(predicted - truth)))
+
+
+def cross_embedded(n: int, dims: int = 10, noise: float = 0.1, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Cross on the first two of `dims` uniform inputs; the others are irrelevant (as in
+    Vijayakumar et al. 2005, section 4). Targets carry N(0, noise^2)."""
+    rng = np.random.default_rng(seed)
+    xs = rng.uniform(-1.0, 1.0, (n, dims))
+    return xs, cross(xs[:, :2]) + rng.normal(0.0, noise, (n, 1))
+
+
+def three_outputs(xs: np.ndarray) -> np.ndarray:
+    """A 3-output map of 12 inputs, each output using different ones (7 used by none)."""
+    return np.stack([np.sin(2 * xs[:, 0]) + xs[:, 1], xs[:, 2] * xs[:, 3], np.exp(-2 * xs[:, 4] ** 2)], axis=1)
+
+
+def three_outputs_samples(n: int, noise: float = 0.02, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    xs = rng.uniform(-1.0, 1.0, (n, 12))
+    return xs, three_outputs(xs) + rng.normal(0.0, noise, (n, 3))
