@@ -29,11 +29,11 @@ def trusted_projections(st, n, n_reg, ok):
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok):
-    """dJ1/dw, its second derivative (for meta-learning), the hat value h and the damping."""
+def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok, meta):
+    """dJ1/dw, its second derivative (only for meta-learning), the hat value h and the damping."""
     s, ss_s2 = vec(st, S_LAST, n), vec(st, SS_S2, n)
     h_tr, r_tr = vec(st, H_TRACE, n), vec(st, R_TRACE, n)
-    big_w = vec(st, SUM_W, n)[0]
+    inv_w = 1.0 / vec(st, SUM_W, n)[0]
     big_e = vec(st, SUM_E_CV2, n)[n_reg - 1]
     # damping while the fit is still far worse in cross-validation than in training
     transient = min(1.0, (st[SUM_E2] / (big_e + 1e-10)) ** 4)
@@ -49,14 +49,16 @@ def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok):
             r_ps2 += ps * ps * r_tr[r]
             s_pse += s[r] * ps * e
     e_cv2 = e_cv * e_cv
-    dj1dw = -big_e / big_w ** 2 + (e_cv2 - 2.0 * h_pse - 2.0 * r_ps2) / big_w
+    dj1dw = (-big_e * inv_w + e_cv2 - 2.0 * h_pse - 2.0 * r_ps2) * inv_w
+    if not meta:
+        return dj1dw, 0.0, h, transient
     d2 = 0.0
     for r in range(n_reg):
         if ok[r]:
             ps = s[r] / ss_s2[r]
-            d2 += (-ps * e / big_w - 2.0 * ps * s_pse) * h_tr[r]
-    d2j1dw2 = (-e_cv2 / big_w ** 2 - 2.0 * d2 / big_w + 2.0 * e * e * h / max(w, 1e-300) / big_w
-               - (e_cv2 - 2.0 * h_pse) / big_w ** 2 + big_e / big_w ** 3)
+            d2 += (-ps * e * inv_w - 2.0 * ps * s_pse) * h_tr[r]
+    d2j1dw2 = (inv_w * (-2.0 * d2 + 2.0 * e * e * h / max(w, 1e-300))
+               + inv_w * inv_w * (-2.0 * e_cv2 + 2.0 * h_pse + big_e * inv_w))
     return dj1dw, d2j1dw2, h, transient
 
 
@@ -66,10 +68,10 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
     trusted_projections(st, n, n_reg, ok)
     if not ok[0]:
         return
-    dj1dw, d2j1dw2, h, transient = cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok)
-    big_w = vec(st, SUM_W, n)[0]
-    penalty = hp[HP_PENALTY] / n
     meta = hp[HP_META] != 0.0
+    dj1dw, d2j1dw2, h, transient = cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok, meta)
+    w_over_big_w = w / vec(st, SUM_W, n)[0]
+    penalty = hp[HP_PENALTY] / n
     c = vec(st, CENTRE, n)
     m, d, alpha = mat(st, METRIC_M, n), mat(st, METRIC_D, n), mat(st, ALPHA, n)
     b, hm = mat(st, META_B, n), mat(st, META_H, n)
@@ -94,11 +96,11 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
                 md += m[r * n + k] * d[k * n + l]
             dqdm = 2.0 * mdx[r] * dxl
             dwdm = dwdq * dqdm
-            djdm = dwdm * dj1dw + w / big_w * 4.0 * penalty * md
+            djdm = dwdm * dj1dw + w_over_big_w * 4.0 * penalty * md
             if meta:
                 d2wdm2 = d2wdq2 * dqdm * dqdm + dwdq * 2.0 * dxl * dxl
                 d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[l * n + l])
-                d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w / big_w * d2j2
+                d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w_over_big_w * d2j2
                 step = min(0.1, max(-0.1, hp[HP_META_RATE] * transient * djdm * hm[i]))
                 if -10.0 < b[i] - step < 10.0:
                     b[i] -= step
