@@ -34,16 +34,23 @@ class Input:
 
 @dataclass(frozen=True, slots=True)
 class Proposal:
-    """A teacher's or learner's answer to one input; y is None when a teacher has nothing to say."""
-    FIELDS = (("tick", INT), ("source", STR), ("y", OPT_VECTOR), ("confidence", FLOAT))
+    """A teacher's or learner's answer to one input; y is None when a teacher has nothing to say.
+    mask (0/1 per output, or None for all) marks the outputs a partial teacher speaks for."""
+    FIELDS = (("tick", INT), ("source", STR), ("y", OPT_VECTOR), ("confidence", FLOAT), ("mask", OPT_VECTOR))
     tick: int
     source: str
     y: np.ndarray | None
     confidence: float
+    mask: np.ndarray | None = None
 
     def check(self, key: str) -> None:
         _check_confidence(key, self.confidence)
         _check_name(key, "source", self.source, slashes=1)
+        if self.mask is not None:
+            if self.y is None or self.mask.shape != self.y.shape:
+                raise SchemaError(key, "mask", "a mask needs an output y of the same length")
+            if not np.all((self.mask == 0) | (self.mask == 1)):
+                raise SchemaError(key, "mask", "mask values must be 0 or 1")
 
 
 @dataclass(frozen=True, slots=True)

@@ -138,12 +138,14 @@ class StatusPublisher:
         self.role, self.name, self.period, self._next = role, name, period, 0.0
         self._previous: tuple[float, dict] | None = None
 
-    def maybe_publish(self, counters: dict, state: dict) -> None:
-        """Adds state['rates']: each counter's change per second since the last status."""
+    def maybe_publish(self, report) -> None:
+        """When due, publishes report() -> (counters, state), adding state['rates']: each counter's
+        change per second since the last status. `report` is only called when due (off the hot path)."""
         now = time.monotonic()
         if now < self._next:
             return
         self._next = now + self.period
+        counters, state = report()
         rates = {}
         if self._previous is not None:
             then, before = self._previous

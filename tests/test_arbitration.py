@@ -95,3 +95,13 @@ def test_platform_restart_resets_tick_memory():
     assert len(table.ready(set(), now=0.0)) == 1
     table.add_input(1, 0.0, np.zeros(2), now=1.0)  # tick numbers start again
     assert len(table.ready(set(), now=1.0)) == 1
+
+
+def test_partial_teachers_merge_with_the_student():
+    pan = Proposal(1, "teacher/pan", np.array([0.0, 5.0, 0.0]), 1.0, np.array([0.0, 1.0, 0.0]))
+    tilt = Proposal(1, "teacher/tilt", np.array([7.0, 0.0, 0.0]), 1.0, np.array([1.0, 0.0, 0.0]))
+    student = ("learner/l", P([1, 2, 3], 0.9))
+    d = TeacherFirst().decide([("teacher/pan", pan)], student, None, np.zeros(3))
+    assert list(d.y) == [1, 5, 3] and d.train
+    d = TeacherFirst().decide([("teacher/pan", pan), ("teacher/tilt", tilt)], student, None, np.zeros(3))
+    assert list(d.y) == [7, 5, 3]

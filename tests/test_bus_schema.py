@@ -70,3 +70,12 @@ def test_training_pair_round_trip():
     pair = TrainingPair("ab12", 9, 3, np.ones(2), np.zeros(1), "teacher/t")
     back = decode(TrainingPair, encode(pair), "k", {"x": 2, "y": 1})
     assert (back.epoch, back.seq, back.source) == ("ab12", 9, "teacher/t")
+
+
+def test_mask_shape_and_values():
+    ok = encode(Proposal(1, "teacher/t", np.zeros(3), 1.0, np.array([0.0, 1.0, 0.0])))
+    assert list(decode(Proposal, ok, "k", {"y": 3}).mask) == [0, 1, 0]
+    with pytest.raises(SchemaError, match="mask"):
+        decode(Proposal, encode(Proposal(1, "teacher/t", np.zeros(3), 1.0, np.array([0.0, 0.5, 0.0]))), "k", {"y": 3})
+    with pytest.raises(SchemaError, match="expected 3 values, got 2"):
+        decode(Proposal, encode(Proposal(1, "teacher/t", np.zeros(3), 1.0, np.zeros(2))), "k", {"y": 3})

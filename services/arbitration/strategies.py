@@ -26,6 +26,20 @@ def _best(proposals: list[tuple[str, Proposal]]) -> tuple[str, Proposal]:
     return max(sorted(proposals, key=lambda item: item[0]), key=lambda item: item[1].confidence)
 
 
+def _teach(teachers, learner, fallback) -> tuple[str, Proposal, np.ndarray]:
+    """The teachers' output. Partial teachers (with a mask) set only their outputs; the others keep
+    the student's (or the held) output, so teachers of different axes merge into one behaviour."""
+    name, best = _best(teachers)
+    if all(p.mask is None for _, p in teachers) or best.mask is None:
+        return name, best, best.y
+    y = np.array(learner[1].y if learner is not None else fallback, dtype=np.float64)
+    # lower confidence first, so the most confident teacher has the last word on a shared output
+    for _, p in sorted(teachers, key=lambda item: (item[1].confidence, item[0])):
+        chosen = p.mask.astype(bool) if p.mask is not None else np.ones(len(y), dtype=bool)
+        y[chosen] = p.y[chosen]
+    return name, best, y
+
+
 class TeacherFirst:
     """The paper's strategy: a non-null teacher output wins (the teacher is assumed right)."""
 
@@ -34,8 +48,8 @@ class TeacherFirst:
 
     def decide(self, teachers, learner, default, fallback: np.ndarray) -> Decision:
         if teachers:
-            name, p = _best(teachers)
-            return Decision(p.y, "teacher", name, p.confidence, True)
+            name, p, y = _teach(teachers, learner, fallback)
+            return Decision(y, "teacher", name, p.confidence, True)
         return self._student(learner, default, fallback)
 
     def _student(self, learner, default, fallback) -> Decision:
@@ -56,9 +70,9 @@ class HighestConfidence(TeacherFirst):
 
     def decide(self, teachers, learner, default, fallback) -> Decision:
         if teachers:
-            name, p = _best(teachers)
+            name, p, y = _teach(teachers, learner, fallback)
             if learner is None or p.confidence >= learner[1].confidence:
-                return Decision(p.y, "teacher", name, p.confidence, True)
+                return Decision(y, "teacher", name, p.confidence, True)
         return self._student(learner, default, fallback)
 
 
@@ -77,12 +91,12 @@ class PredictiveLearning(TeacherFirst):
             decision = self._student(learner, default, fallback)
             return Decision(decision.y, "student" if self.acting else decision.mode, decision.source,
                             decision.confidence, False)
-        name, p = _best(teachers)
+        name, p, y = _teach(teachers, learner, fallback)
         if learner is not None:
-            self._errors = (self._errors + [float(np.mean((learner[1].y - p.y) ** 2))])[-self.window:]
+            self._errors = (self._errors + [float(np.mean((learner[1].y - y) ** 2))])[-self.window:]
             if len(self._errors) == self.window and np.mean(self._errors) < self.error_threshold:
                 self.acting = True
-        return Decision(p.y, "teacher", name, p.confidence, True)
+        return Decision(y, "teacher", name, p.confidence, True)
 
 
 STRATEGIES = {"teacher-first": TeacherFirst, "confidence": HighestConfidence, "predictive": PredictiveLearning}

@@ -170,7 +170,7 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
                 arb.decide_ready(now)
                 item = inbox.get_nowait()
             arb.decide_ready(time.monotonic())
-            status.maybe_publish(*arb.status())
+            status.maybe_publish(arb.status)
     return 0
 
 

@@ -66,10 +66,11 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
                 item = inbox.get_nowait()
             if newest is not None and (teaching is not None or role == "default"):
                 y, confidence = plugin(newest.x)
-                pub.put(encode(Proposal(newest.tick, f"{role}/{name}", y, float(confidence))))
+                mask = getattr(plugin, "mask", None) if y is not None else None
+                pub.put(encode(Proposal(newest.tick, f"{role}/{name}", y, float(confidence), mask)))
                 counts["proposals"] += 1
-            status.maybe_publish(dict(counts, rejected=rejects.total),
-                                 {"teaching": teaching is not None, "teacher": teacher})
+            status.maybe_publish(lambda: (dict(counts, rejected=rejects.total),
+                                          {"teaching": teaching is not None, "teacher": teacher}))
     return 0
 
 

@@ -184,7 +184,7 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
                 node.answer(newest)
             for pair in pairs:
                 node.on_pair(pair)
-            status.maybe_publish(*node.status())
+            status.maybe_publish(node.status)
         pairlog.close()
     return 0
 

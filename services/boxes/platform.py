@@ -135,7 +135,7 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
                 else:
                     loop.on_command(key, raw)
                 item = inbox.get_nowait()
-            status.maybe_publish(*loop.status())
+            status.maybe_publish(loop.status)
         if latency_log:
             np.save(latency_log, np.array(loop.latencies))
         if summary:

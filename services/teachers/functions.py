@@ -23,14 +23,19 @@ class SineTeacher:
 
 
 class CopyTeacher:
-    """Copies chosen inputs to chosen outputs ([[input, output], ...]); every other output is `rest`."""
+    """Copies chosen inputs to chosen outputs ([[input, output], ...]); every other output is `rest`,
+    or, with partial=True, left to the student (the teacher speaks only for its outputs: `mask`)."""
 
-    def __init__(self, spaces: Spaces, pairs: list = ((0, 0),), rest: float = 0.0):
+    def __init__(self, spaces: Spaces, pairs: list = ((0, 0),), rest: float = 0.0, partial: bool = False):
         self.spaces, self.rest = spaces, rest
         self.pairs = [(int(i), int(o)) for i, o in pairs]
         for i, o in self.pairs:
             if not (0 <= i < spaces.input.dims and 0 <= o < spaces.output.dims):
                 raise ValueError(f"pair ({i}, {o}) is outside {spaces.input.dims} inputs / {spaces.output.dims} outputs")
+        self.mask = None
+        if partial:
+            self.mask = np.zeros(spaces.output.dims)
+            self.mask[[o for _, o in self.pairs]] = 1.0
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
         y = np.full(self.spaces.output.dims, self.rest, dtype=np.float64)
@@ -50,7 +55,8 @@ class MirrorTeacher(CopyTeacher):
         if axes not in ("both", "pan", "tilt"):
             raise ValueError(f"axes must be 'both', 'pan' or 'tilt', got {axes!r}")
         chosen = _MIRROR_AXES.values() if axes == "both" else [_MIRROR_AXES[axes]]
-        super().__init__(spaces, pairs=list(chosen))
+        # a one-axis teacher leaves the other outputs to the student, so two teachers can merge
+        super().__init__(spaces, pairs=list(chosen), partial=axes != "both")
 
 
 class HoldTeacher:

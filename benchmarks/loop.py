@@ -1,0 +1,95 @@
+"""Tick latency of the whole loop (platform -> learner -> arbitrator -> platform) over Zenoh.
+
+Real processes on a real router on loopback: point platform, a teacher switched off, an LWPR
+learner, the arbitrator. The floor is a raw UDP round trip between two processes, measured in
+the same run. Prints a table; the last line is one JSON object of the figures.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks.udp_echo import round_trips  # noqa: E402
+from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
+
+
+def udp_floor(count: int) -> np.ndarray:
+    port = free_port()
+    proc = dogged_python("benchmarks/udp_echo.py", str(port), "60")
+    time.sleep(0.5)
+    try:
+        round_trips(port, 200, b"x" * 96)  # warm up
+        return round_trips(port, count, b"x" * 96)
+    finally:
+        stop(proc)
+
+
+def dogged_python(*args: str):
+    import subprocess
+    from tests.harness import REPO
+    return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def run_platform(router: str, rate: float, ticks: int, work: Path) -> tuple[np.ndarray, dict]:
+    lat, summary = work / f"lat-{rate:g}.npy", work / f"sum-{rate:g}.json"
+    proc = dogged("run", "platform", "--param", "dims=2", "--rate", str(rate), "--max-ticks", str(ticks),
+                  "--latency-log", str(lat), "--summary", str(summary), "--connect", router,
+                  log=work / f"platform-{rate:g}.log")
+    proc.wait(timeout=ticks / rate + 60)
+    return np.load(lat) * 1e3, json.loads(summary.read_text())
+
+
+def main(quick: bool) -> dict:
+    work = Path(tempfile.mkdtemp(prefix="dogged-loop-"))
+    udp = udp_floor(2000 if quick else 10000) * 1e3
+    router = f"tcp/127.0.0.1:{free_port()}"
+    boxes = [dogged("run", "router", "--listen", router, log=work / "router.log")]
+    boxes += [dogged("run", "demonstrator", "--teacher", "sine", "--connect", router, log=work / "teacher.log"),
+              dogged("run", "learner", "--learner", "lwpr", "--connect", router, log=work / "learner.log"),
+              dogged("run", "arbitrator", "--connect", router, log=work / "arbitrator.log")]
+    probe = Probe(router)
+    rows, figures = [], {}
+    try:
+        probe.wait_for(lambda: len(probe.status) >= 0, 1)
+        time.sleep(3)  # services up, kernels compiled
+        for rate, seconds in ((100, 10 if quick else 30), (1000, 5 if quick else 20)):
+            ms, counts = run_platform(router, rate, int(rate * seconds), work)
+            ms = ms[len(ms) // 20:]  # the first 5% include connection set-up
+            rows.append((f"{rate} Hz", len(ms), np.percentile(ms, 50), np.percentile(ms, 99), counts["unanswered"]))
+        figures["tick_p50_ms"], figures["tick_p99_ms"] = round(rows[0][2], 3), round(rows[0][3], 3)
+        figures["tick_p50_ms_1khz"], figures["tick_p99_ms_1khz"] = round(rows[1][2], 3), round(rows[1][3], 3)
+        held = 0
+        for rate in (1000, 1500, 2000, 3000, 4000, 6000):
+            ms, counts = run_platform(router, rate, int(rate * (2 if quick else 5)), work)
+            rows.append((f"ramp {rate} Hz", len(ms), np.percentile(ms, 50), np.percentile(ms, 99),
+                         counts["unanswered"]))
+            if counts["unanswered"] or counts["ticks"] < rate * (2 if quick else 5) * 0.999:
+                break
+            held = rate
+        figures["max_rate_hz"] = held
+    finally:
+        probe.close()
+        stop(*reversed(boxes))
+    figures["udp_rtt_ms"] = round(float(np.percentile(udp, 50)), 4)
+    figures["udp_rtt_p99_ms"] = round(float(np.percentile(udp, 99)), 4)
+    figures["tick_p50_over_udp"] = round(figures["tick_p50_ms"] / figures["udp_rtt_ms"], 1)
+    print(f"{'run':<16}{'ticks':>8}{'p50 ms':>10}{'p99 ms':>10}{'lost':>7}{'p50/UDP':>10}")
+    print(f"{'UDP round trip':<16}{len(udp):>8}{figures['udp_rtt_ms']:>10.3f}{figures['udp_rtt_p99_ms']:>10.3f}"
+          f"{0:>7}{1.0:>10.1f}")
+    for name, n, p50, p99, lost in rows:
+        print(f"{name:<16}{n:>8}{p50:>10.3f}{p99:>10.3f}{lost:>7}{p50 / figures['udp_rtt_ms']:>10.1f}")
+    print(f"highest rate held with no tick lost: {figures['max_rate_hz']} Hz (logs in {work})")
+    return figures
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a shorter run (about a minute)")
+    print(json.dumps(main(parser.parse_args().quick)))
