@@ -30,6 +30,9 @@ def _kernels():
     # imported on first use so that importing services.learners stays fast
     global _loaded_kernels
     if _loaded_kernels is None:
+        from .kernel_cache import drop_stale_numba_cache
+
+        drop_stale_numba_cache()
         from . import lwpr_kernels
         _loaded_kernels = lwpr_kernels
     return _loaded_kernels

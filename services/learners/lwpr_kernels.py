@@ -167,29 +167,39 @@ def rf_prediction(st, n, n_reg, x, xres, exact):
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
 def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
-    """Output k: activation-weighted mean of the fields, strongest activation, interval."""
+    """Output k: activation-weighted mean of the fields, support, one-sigma interval.
+
+    A field is trusted once it has learned from 2 n samples (effective, after
+    forgetting), as in the reference library; while any trusted field is active, young
+    ones are left out, because a field created a moment ago fits its few samples and
+    nothing else. Support (the confidence) is the strongest activation, each discounted
+    by its field's maturity min(1, samples / 2n)."""
     n = x.shape[0]
-    diag_only = hp[HP_DIAG_ONLY] != 0.0
-    sw, swy, swyy, swv, q_min = 0.0, 0.0, 0.0, 0.0, math.inf
+    diag_only, exact = hp[HP_DIAG_ONLY] != 0.0, hp[HP_EXACT_FIT] != 0.0
     q_cut = -2.0 * math.log(hp[HP_W_CUTOFF]) if hp[HP_W_CUTOFF] > 0.0 else math.inf
+    trusted_at = 2.0 * n
+    sw, swy, swyy, swv = 0.0, 0.0, 0.0, 0.0  # over all active fields
+    tw, twy, twyy, twv = 0.0, 0.0, 0.0, 0.0  # over trusted ones
+    support = 0.0
     for j in range(n_rfs[k]):
         st = rfs[k, j]
         q = squared_distance(st, n, x, diag_only)
-        q_min = min(q_min, q)
+        maturity = min(1.0, vec(st, N_DATA, n)[0] / trusted_at)
+        support = max(support, math.exp(-0.5 * q) * maturity)
         if q < q_cut:
             w = math.exp(-0.5 * q)
-            yp, var = rf_prediction(st, n, nreg[k, j], x, xres, hp[HP_EXACT_FIT] != 0.0)
-            sw += w
-            swy += w * yp
-            swyy += w * yp * yp
-            swv += w * var
-    w_max = math.exp(-0.5 * q_min)
+            yp, var = rf_prediction(st, n, nreg[k, j], x, xres, exact)
+            sw, swy, swyy, swv = sw + w, swy + w * yp, swyy + w * yp * yp, swv + w * var
+            if maturity >= 1.0:
+                tw, twy, twyy, twv = tw + w, twy + w * yp, twyy + w * yp * yp, twv + w * var
+    if tw > 0.0:
+        sw, swy, swyy, swv = tw, twy, twyy, twv
     if sw <= 0.0:
-        return 0.0, w_max, math.inf
+        return 0.0, support, math.inf
     y = swy / sw
     # spread between fields counts as uncertainty too
     spread = max(0.0, swyy / sw - y * y)
-    return y, w_max, math.sqrt(swv / sw + spread)
+    return y, support, math.sqrt(swv / sw + spread)
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)

@@ -102,14 +102,8 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
                 d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[l * n + l])
                 d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w_over_big_w * d2j2
                 step = min(0.1, max(-0.1, hp[HP_META_RATE] * transient * djdm * hm[i]))
-                if -10.0 < b[i] - step < 10.0:
-                    b[i] -= step
-                    # alpha = exp(b) updated multiplicatively: |step| <= 0.1, so a cubic
-                    # is exact to 5e-6 and spares an exp per entry per update
-                    alpha[i] *= 1.0 - step * (1.0 - step * (0.5 - step / 6.0))
-                else:
-                    b[i] = min(10.0, max(-10.0, b[i] - step))
-                    alpha[i] = math.exp(b[i])
+                b[i] = min(10.0, max(-10.0, b[i] - step))
+                alpha[i] = math.exp(b[i])
                 hm[i] = hm[i] * max(0.0, 1.0 - alpha[i] * d2jdm2 * transient) \
                     - alpha[i] * djdm * transient
             delta = alpha[i] * djdm * transient
