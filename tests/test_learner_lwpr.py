@@ -1,0 +1,39 @@
+"""LWPR specifics beyond the shared conformance suite."""
+import numpy as np
+
+from services.learners import make_learner
+from services.learners.kernel_cache import drop_stale_numba_cache
+from services.learners.tasks import cross_training
+
+
+def test_interval_is_finite_on_data_and_infinite_without_support():
+    model = make_learner("lwpr", 2, 1, init_D=25.0)
+    xs, ys = cross_training(300)
+    model.learn_many(xs, ys)
+    on_data = model.predict_one(xs[0])
+    assert on_data.interval.shape == (1,) and np.isfinite(on_data.interval).all()
+    assert on_data.interval[0] > 0.0
+    assert np.isinf(model.predict_one(np.array([50.0, 50.0])).interval).all()
+
+
+def test_fields_never_exceed_max_rfs_per_output():
+    model = make_learner("lwpr", 2, 2, init_D=400.0, max_rfs=12)
+    xs = np.random.default_rng(0).uniform(-1, 1, (2000, 2))
+    model.learn_many(xs, np.c_[xs.sum(1), xs[:, 0]])
+    assert model.rfs_per_output == [12, 12]
+
+
+def test_snapshot_holds_only_used_slots():
+    model = make_learner("lwpr", 3, 1)
+    model.learn_many(np.zeros((5, 3)), np.zeros((5, 1)))
+    assert len(model.snapshot()) < 40_000
+
+
+def test_stale_kernel_cache_is_dropped_once(tmp_path):
+    (tmp_path / "lwpr_kernels.learn_one-1.py311.nbi").write_text("old")
+    (tmp_path / "lwpr_kernels.learn_one-1.py311.1.nbc").write_text("old")
+    (tmp_path / "other.f-1.py311.nbi").write_text("keep")
+    assert drop_stale_numba_cache(tmp_path) is True
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lwpr_kernels.sources-sha256", "other.f-1.py311.nbi"]
+    (tmp_path / "lwpr_kernels.learn_one-1.py311.nbi").write_text("fresh")
+    assert drop_stale_numba_cache(tmp_path) is False
