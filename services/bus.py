@@ -38,6 +38,9 @@ def zenoh_config(connect=None, listen=None, mode="peer", config_file=None) -> ze
     conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    # a latest-only message waits up to 20 ms for room before it is dropped (default 1 ms): on a
+    # busy 2-core machine a sender thread can be descheduled that long without any real congestion
+    conf.insert_json5("transport/link/tx/queue/congestion_control/drop/wait_before_drop", "20000")
     if mode == "router":
         conf.insert_json5("listen/endpoints", json.dumps(listen or [DEFAULT_ROUTER]))
     else:
@@ -134,7 +137,8 @@ class StatusPublisher:
     """Publishes a Status once a second (latest-only: a lost one is replaced by the next)."""
 
     def __init__(self, session: zenoh.Session, key: str, role: str, name: str, period: float = 1.0):
-        self._pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP)
+        self._pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP,
+                                              priority=zenoh.Priority.BACKGROUND)
         self.role, self.name, self.period, self._next = role, name, period, 0.0
         self._previous: tuple[float, dict] | None = None
 
@@ -154,15 +158,18 @@ class StatusPublisher:
         self._pub.put(encode(Status(self.role, self.name, os.getpid(), counters, {**state, "rates": rates})))
 
 
-def sensor_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
-    """Latest-only: drop under congestion, send at once (express)."""
-    return session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP, express=True)
+def sensor_publisher(session: zenoh.Session, key: str, bulky: bool = False) -> zenoh.Publisher:
+    """Latest-only: drop under congestion, send at once (express). The tick path (inputs, proposals,
+    commands) goes first; bulky streams (camera frames) go at a lower priority so they never delay it."""
+    priority = zenoh.Priority.DATA_LOW if bulky else zenoh.Priority.INTERACTIVE_HIGH
+    return session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP, express=True,
+                                     priority=priority)
 
 
 def lossless_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
     """Lossless: reliable transport, block rather than drop under congestion."""
     return session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK,
-                                     reliability=zenoh.Reliability.RELIABLE)
+                                     reliability=zenoh.Reliability.RELIABLE, priority=zenoh.Priority.DATA)
 
 
 def wait_matching(publisher: zenoh.Publisher, timeout: float, stop=None) -> bool:

@@ -5,7 +5,7 @@ import time
 from tests.harness import Probe, dogged, dogged_ok, free_port
 from tests.test_supervisor import ps, wait
 
-TICKS = 4000  # 20 s at 200 Hz
+TICKS = 6000  # 30 s at 200 Hz
 
 PROFILE = """
 [profile]
@@ -38,7 +38,8 @@ def test_swap_learners_during_200hz_run(tmp_path):
     sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
     probe = Probe(endpoint)
     try:
-        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "train_pairs") > 300, 90, "the loop running")
+        wait(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()), 90, "all ready")
+        probe.wait_for(lambda: probe.counter("learner/learner", "pairs") > 300, 90, "the loop running")
         # another class: the new learner trains on the pairs seen so far
         cross = dogged_ok("swap", "learner", "knn", endpoint=endpoint, timeout=120)
         assert cross.returncode == 0, cross.stdout + cross.stderr

@@ -150,6 +150,9 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
         held.append(session.declare_subscriber(keys.select_learner, inbox.callback("select")))
         held.append(session.declare_queryable(keys.train_recent, inbox.query_callback("recent")))
         status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name)
+        # alive only once a platform hears our commands: the platform's first tick waits for this token
+        while not stop and not arb.command_pub.matching_status.matching:
+            time.sleep(0.005)
         held.append(session.liveliness().declare_token(keys.alive("arbitrator", name)))
         log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
                  strategy, unsure_below)

@@ -24,8 +24,12 @@ from services.platforms import PLATFORMS, make_platform
 
 
 class PlatformLoop:
-    def __init__(self, session, keys, platform, log, latency_log=None):
-        self.keys, self.platform, self.log = keys, platform, log
+    """Ticks, commands, the watchdog and latency for one Platform; subclasses add streams."""
+
+    role = "platform"
+
+    def __init__(self, session, keys, platform, log, latency_log=None, name="platform"):
+        self.keys, self.platform, self.log, self.name = keys, platform, log, name
         self.dims = platform.spaces.output.dims
         self.input_pub = sensor_publisher(session, keys.input)
         self.applied_pub = sensor_publisher(session, keys.applied)
@@ -59,9 +63,10 @@ class PlatformLoop:
             self.latest, self.latest_at = msg, time.monotonic()
         if msg.mode != self.mode:
             self.mode = msg.mode
-            show = getattr(self.platform, "show_mode", None)
-            if show is not None:
-                show(msg.mode)
+            self.show_mode(msg.mode)
+
+    def show_mode(self, mode: str) -> None:
+        """The robot shows the arbitrator's mode (the Aibo's ears); plain platforms have nothing to show."""
 
     def advance(self, dt, watchdog):
         fresh = self.latest is not None and self.latest.tick > self.applied_tick \
@@ -78,8 +83,10 @@ class PlatformLoop:
 
     def summary(self) -> dict:
         answered = len([t for t in self.answered if t <= self.tick])
+        missing = sorted(set(range(1, self.tick + 1)) - self.answered)
         return {"ticks": self.tick, "commands": self.counts["commands"], "answered": answered,
-                "unanswered": self.tick - answered, "held": self.counts["held"], "rejected": self.rejects.total}
+                "unanswered": self.tick - answered, "first_unanswered": missing[:20], "held": self.counts["held"],
+                "rejected": self.rejects.total}
 
     def status(self):
         lat = np.array(self.recent_latency) * 1e3 if self.recent_latency else np.zeros(1)
@@ -89,58 +96,74 @@ class PlatformLoop:
         return counters, state
 
 
+def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, rate_hz: float, sim_hz: float,
+              watchdog: float, max_ticks: int, spaces_key: str | None = None):
+    """The platform's clock: ticks at `rate_hz` (0: lockstep, the next tick as soon as this one is
+    answered), applies commands, holds under the watchdog, and serves the spaces query."""
+    spaces_payload = encode(SpacesMessage(loop.platform.spaces.to_dict()))
+    spaces_key = spaces_key or keys.spaces
+    held = [session.declare_subscriber(keys.command, inbox.callback("command")),
+            session.liveliness().declare_subscriber(f"{keys.prefix}/alive/arbitrator/*", inbox.callback("arbitrator"),
+                                                    history=True)]
+    if spaces_key:
+        held.append(session.declare_queryable(spaces_key, inbox.query_callback("spaces")))
+    status = StatusPublisher(session, keys.status(loop.role, loop.name), loop.role, loop.name)
+    period = 1.0 / rate_hz if rate_hz else None
+    dt = period or 1.0 / sim_hz
+    next_tick = time.monotonic()
+    arbitrators: set[str] = set()
+    while not stop:
+        now = time.monotonic()
+        waiting = not arbitrators and loop.tick == 0  # no loop yet: hold still, lose no tick
+        if waiting:
+            next_tick = now + 0.05
+        answered = loop.latest is not None and loop.latest.tick >= loop.tick
+        if max_ticks and loop.tick >= max_ticks and (answered or now >= next_tick + watchdog):
+            break  # the last tick is answered (or will never be): done
+        if not waiting and (now >= next_tick or (period is None and answered)):
+            if loop.tick:
+                loop.advance(dt, watchdog)
+            if not (max_ticks and loop.tick >= max_ticks):
+                loop.publish_input()
+            # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
+            next_tick = max(next_tick + period, now) if period else now + watchdog
+        item = inbox.get(max(0.0, next_tick - time.monotonic()))
+        while item is not None:
+            tag, key, raw, kind = item
+            if tag == "spaces":
+                raw.reply(spaces_key, spaces_payload)
+            elif tag == "arbitrator":
+                (arbitrators.add if kind == zenoh.SampleKind.PUT else arbitrators.discard)(key)
+            elif tag == "command":
+                loop.on_command(key, raw)
+            else:
+                handlers[tag](key, raw)
+            item = inbox.get_nowait()
+        status.maybe_publish(loop.status)
+    return held
+
+
+def finish(loop: PlatformLoop, latency_log: str | None, summary: str | None) -> None:
+    if latency_log:
+        np.save(latency_log, np.array(loop.latencies))
+    if summary:
+        Path(summary).write_text(json.dumps(loop.summary()))
+    loop.log.info("stopping after %d ticks, %d commands", loop.tick, loop.counts["commands"])
+
+
 def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: str = "platform",
          rate_hz: float = 30.0, sim_hz: float = 30.0, watchdog: float = 0.5, max_ticks: int = 0,
          latency_log: str | None = None, summary: str | None = None) -> int:
     log = setup_logging("platform", name)
     stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
     with make_platform(platform, **params) as robot, zenoh.open(conf) as session:
-        loop = PlatformLoop(session, keys, robot, log, latency_log)
-        spaces_payload = encode(SpacesMessage(robot.spaces.to_dict()))
-        held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.declare_queryable(keys.spaces, inbox.query_callback("spaces")))
-        held.append(session.declare_subscriber(keys.command, inbox.callback("command")))
-        status = StatusPublisher(session, keys.status("platform", name), "platform", name)
-        held.append(session.liveliness().declare_token(keys.alive("platform", name)))
-        held.append(session.liveliness().declare_subscriber(f"{keys.prefix}/alive/arbitrator/*",
-                                                            inbox.callback("arbitrator"), history=True))
+        loop = PlatformLoop(session, keys, robot, log, latency_log, name=name)
+        token = session.liveliness().declare_token(keys.alive("platform", name))
         log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
                  robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
-        period = 1.0 / rate_hz if rate_hz else None
-        dt = period or 1.0 / sim_hz
-        next_tick = time.monotonic()
-        arbitrators: set[str] = set()
-        while not stop:
-            now = time.monotonic()
-            waiting = not arbitrators and loop.tick == 0  # no loop yet: hold still, lose no tick
-            if waiting:
-                next_tick = now + 0.05
-            answered = loop.latest is not None and loop.latest.tick >= loop.tick
-            if max_ticks and loop.tick >= max_ticks and (answered or now >= next_tick + watchdog):
-                break  # the last tick is answered (or will never be): done
-            if not waiting and (now >= next_tick or (period is None and answered)):
-                if loop.tick:
-                    loop.advance(dt, watchdog)
-                if not (max_ticks and loop.tick >= max_ticks):
-                    loop.publish_input()
-                # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
-                next_tick = max(next_tick + period, now) if period else now + watchdog
-            item = inbox.get(max(0.0, next_tick - time.monotonic()))
-            while item is not None:
-                tag, key, raw, kind = item
-                if tag == "spaces":
-                    raw.reply(keys.spaces, spaces_payload)
-                elif tag == "arbitrator":
-                    (arbitrators.add if kind == zenoh.SampleKind.PUT else arbitrators.discard)(key)
-                else:
-                    loop.on_command(key, raw)
-                item = inbox.get_nowait()
-            status.maybe_publish(loop.status)
-        if latency_log:
-            np.save(latency_log, np.array(loop.latencies))
-        if summary:
-            Path(summary).write_text(json.dumps(loop.summary()))
-        log.info("stopping after %d ticks, %d commands", loop.tick, loop.counts["commands"])
+        run_ticks(loop, session, keys, inbox, stop, {}, rate_hz, sim_hz, watchdog, max_ticks)
+        finish(loop, latency_log, summary)
+        token.undeclare()
     return 0
 
 
