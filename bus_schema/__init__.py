@@ -1,11 +1,12 @@
 """The bus contract: keys, payloads, spaces. Imports nothing else of the project."""
 from .codec import VERSION, decode, encode, pack_vector, unpack_vector
 from .errors import SchemaError
-from .keys import InstanceKeys, check_name, supervisor_key
-from .messages import (MODES, Applied, Command, ControlReply, Input, PairBatch, Proposal, SelectLearner, Snapshot,
+from .keys import InstanceKeys, RobotKeys, check_name, supervisor_key
+from .messages import (MODES, Applied, ArenaReset, Clock, Command, ControlReply, Frame, Handle, RobotState, Input, PairBatch, Proposal, SelectLearner, Snapshot,
                        SpacesMessage, Status, TeachSwitch, TrainingPair)
 from .spaces import Box, Spaces
 
 __all__ = ["VERSION", "decode", "encode", "pack_vector", "unpack_vector", "SchemaError", "InstanceKeys",
-           "check_name", "supervisor_key", "MODES", "Applied", "Command", "ControlReply", "Input", "PairBatch", "Proposal",
+           "check_name", "supervisor_key", "MODES", "Applied", "Command", "ControlReply", "RobotKeys", "ArenaReset",
+           "Clock", "Frame", "Handle", "RobotState", "Input", "PairBatch", "Proposal",
            "SelectLearner", "Snapshot", "SpacesMessage", "Status", "TeachSwitch", "TrainingPair", "Box", "Spaces"]

@@ -56,6 +56,20 @@ class InstanceKeys:
         return None
 
 
+class RobotKeys:
+    """Key expressions of one robot's own streams, under robot/<name>/ (shared by the DL instances on it)."""
+
+    def __init__(self, robot: str):
+        self.robot = check_name("robot", robot)
+        p = self.prefix = f"robot/{robot}"
+        self.camera = f"{p}/camera"
+        self.clock = f"{p}/clock"
+        self.handle = f"{p}/handle"
+        self.arena = f"{p}/arena"
+        self.spaces = f"{p}/spaces"
+        self.state = f"{p}/state"
+
+
 SUPERVISOR = "dogged/supervisor"
 
 

@@ -168,3 +168,73 @@ class ControlReply:
     ok: bool
     text: str
     data: dict
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """A JPEG camera frame. tick: the DL tick it starts when the camera is the input (0 otherwise)."""
+    FIELDS = (("tick", INT), ("stamp", FLOAT), ("sim_time", FLOAT), ("width", INT), ("height", INT), ("jpeg", BYTES))
+    MAX_BYTES = 2 * 1024 * 1024
+    tick: int
+    stamp: float
+    sim_time: float
+    width: int
+    height: int
+    jpeg: bytes
+
+    def check(self, key: str) -> None:
+        if not (0 < self.width <= 4096 and 0 < self.height <= 4096):
+            raise SchemaError(key, "width", f"{self.width}x{self.height} is not a plausible frame size")
+        if self.jpeg[:2] != b"\xff\xd8":
+            raise SchemaError(key, "jpeg", "not a JPEG (no FFD8 start-of-image marker)")
+
+
+@dataclass(frozen=True, slots=True)
+class Clock:
+    """The simulation clock (s) beside the wall clock (s)."""
+    FIELDS = (("sim_time", FLOAT), ("wall", FLOAT))
+    sim_time: float
+    wall: float
+
+
+@dataclass(frozen=True, slots=True)
+class Handle:
+    """A person moves joints by hand: where mask is 1 the joint follows q, whatever else commands it."""
+    FIELDS = (("mask", VECTOR), ("q", VECTOR))
+    mask: np.ndarray
+    q: np.ndarray
+
+    def check(self, key: str) -> None:
+        if self.mask.shape != self.q.shape:
+            raise SchemaError(key, "q", f"{len(self.q)} positions for a mask of {len(self.mask)}")
+        if not np.all((self.mask == 0) | (self.mask == 1)):
+            raise SchemaError(key, "mask", "mask values must be 0 or 1")
+
+
+@dataclass(frozen=True, slots=True)
+class ArenaReset:
+    """Rebuild the arena from a seed; balls maps a ball's name to [x, y] (m) or nil to hide it."""
+    FIELDS = (("seed", INT), ("balls", MAP))
+    seed: int
+    balls: dict
+
+    def check(self, key: str) -> None:
+        for name, xy in self.balls.items():
+            ok = xy is None or (isinstance(xy, list) and len(xy) == 2 and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in xy))
+            if not isinstance(name, str) or not ok:
+                raise SchemaError(key, f"balls.{name}", "expected [x, y] in metres (finite) or nil to hide")
+
+
+@dataclass(frozen=True, slots=True)
+class RobotState:
+    """The simulator's ground truth, for judges and tools (never a DL input): base (x, y, yaw),
+    nose (x, y, z), balls name -> [x, y, z] (m, rad), and the ears' mode and colour (RGBA 0-1)."""
+    FIELDS = (("sim_time", FLOAT), ("base", VECTOR), ("nose", VECTOR), ("balls", MAP), ("ear_mode", STR),
+              ("ear_rgba", VECTOR))
+    sim_time: float
+    base: np.ndarray
+    nose: np.ndarray
+    balls: dict
+    ear_mode: str
+    ear_rgba: np.ndarray

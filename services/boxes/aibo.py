@@ -1,0 +1,154 @@
+"""The simulated Aibo as a platform service.
+
+DL side (dl/<instance>/...): with --input joints it is the platform of the mirroring task (input
+the 18 joint positions); with --input camera its ticks are camera frames that perception turns
+into the input (ball seeking). Either way it applies the arbitrator's commands (18 joint targets,
+or --command move: forward, turn walked by the gait), reports what it applied, holds still under
+the watchdog and lights its ears with the mode.
+Robot side (robot/<name>/...): JPEG frames at the camera rate, the simulation clock, ground-truth
+state; it takes a handler's joints and arena resets.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import zenoh
+
+from bus_schema import (ArenaReset, Clock, Frame, Handle, InstanceKeys, RobotKeys, RobotState, SpacesMessage,
+                        decode, encode)
+from services.boxes.platform import PlatformLoop, finish, run_ticks
+from services.bus import (Inbox, StopFlag, add_bus_args, config_from_args, decode_or_reject, sensor_publisher,
+                          setup_logging)
+from services.perception.jpeg import encode_rgb
+from services.platforms.aibo.camera import HEIGHT, WIDTH
+from services.platforms.aibo.platform import AiboPlatform
+
+STATE_HZ = 20.0
+
+
+class AiboLoop(PlatformLoop):
+    role = "aibo"
+
+    def __init__(self, session, keys, robot_keys, platform: AiboPlatform, log, name, input_mode, camera_hz,
+                 latency_log=None):
+        super().__init__(session, keys, platform, log, latency_log, name=name)
+        self.robot_keys, self.sim, self.input_mode = robot_keys, platform.sim, input_mode
+        self.camera_period = 1.0 / camera_hz if camera_hz else None
+        self.next_frame = 0.0
+        self.next_state = 0.0
+        self.frame_pub = sensor_publisher(session, robot_keys.camera, bulky=True)
+        self.clock_pub = sensor_publisher(session, robot_keys.clock)
+        self.state_pub = sensor_publisher(session, robot_keys.state, bulky=True)
+        self.handle_mask = np.zeros(18)
+
+    def publish_input(self):
+        if self.input_mode == "joints":
+            super().publish_input()
+        else:  # the frame is the tick: perception answers it with the input
+            self.tick += 1
+            self.publish_frame(self.tick)
+        self.publish_robot_streams()
+
+    def publish_frame(self, tick: int):
+        jpeg = encode_rgb(self.sim.render_camera())
+        self.frame_pub.put(encode(Frame(tick, time.time(), self.sim.sim_time, WIDTH, HEIGHT, jpeg)))
+        self.counts["frames"] += 1
+
+    def publish_robot_streams(self):
+        now = self.sim.sim_time
+        self.clock_pub.put(encode(Clock(now, time.time())))
+        if self.input_mode == "joints" and self.camera_period and now >= self.next_frame:
+            self.next_frame = max(self.next_frame + self.camera_period, now)
+            self.publish_frame(0)
+        if now >= self.next_state:
+            self.next_state = now + 1.0 / STATE_HZ
+            self.state_pub.put(encode(self.robot_state()))
+
+    def robot_state(self) -> RobotState:
+        position, _ = self.sim.base_pose()
+        nose, _ = self.sim.nose_pose()
+        balls = {name: [float(v) for v in xyz] for name, xyz in self.sim.ball_positions().items()}
+        colours = self.sim.ear_colours()
+        return RobotState(self.sim.sim_time, np.array([position[0], position[1], self.sim.base_yaw()]), nose,
+                          balls, self.sim.ear_mode or "", np.array(colours[0] if colours else (0, 0, 0, 0)))
+
+    def show_mode(self, mode: str) -> None:
+        self.sim.set_ear_mode(mode)
+
+    def on_handle(self, key, raw):
+        msg = decode_or_reject(lambda: decode(Handle, raw, key, {"mask": 18, "q": 18}), self.rejects, key)
+        if msg is not None:
+            self.handle_mask = msg.mask
+            self.sim.set_handled(msg.mask.astype(bool), msg.q)
+            self.counts["handled"] += 1
+
+    def on_arena(self, key, raw):
+        msg = decode_or_reject(lambda: decode(ArenaReset, raw, key), self.rejects, key)
+        if msg is None:
+            return
+        unknown = set(msg.balls) - set(self.sim.ball_positions())
+        if unknown:
+            self.rejects(key, ValueError(f"{key}: unknown balls {sorted(unknown)}"))
+            return
+        self.platform.reset(msg.seed)
+        for name, xy in msg.balls.items():
+            self.sim.hide_ball(name) if xy is None else self.sim.place_ball(name, xy)
+        # a reset rebuilds the robot: what the bus had set must be set again
+        self.sim.set_ear_mode(self.mode or None)
+        self.sim.set_handled(self.handle_mask.astype(bool))
+        self.next_frame = self.next_state = 0.0
+        self.counts["resets"] += 1
+        self.log.info("arena reset with seed %d, balls %s", msg.seed, msg.balls or "as seeded")
+
+    def status(self):
+        counters, state = super().status()
+        state.update(sim_time=round(self.sim.sim_time, 3), ear_mode=self.sim.ear_mode or "")
+        return counters, state
+
+
+def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, command: str, input_mode: str,
+         rate_hz: float, sim_hz: float, camera_hz: float, watchdog: float, max_ticks: int, gui: bool,
+         latency_log: str | None = None, summary: str | None = None) -> int:
+    log = setup_logging("aibo", name)
+    stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
+    with AiboPlatform(seed=seed, command=command, gui=gui) as aibo, zenoh.open(conf) as session:
+        loop = AiboLoop(session, keys, robot_keys, aibo, log, name, input_mode, camera_hz, latency_log)
+        robot_spaces = encode(SpacesMessage(aibo.spaces.to_dict()))
+        held = [session.declare_subscriber(robot_keys.handle, inbox.callback("handle")),
+                session.declare_subscriber(robot_keys.arena, inbox.callback("arena")),
+                session.declare_queryable(robot_keys.spaces, inbox.query_callback("robot_spaces")),
+                session.liveliness().declare_token(keys.alive("aibo", name))]
+        handlers = {"handle": loop.on_handle, "arena": loop.on_arena,
+                    "robot_spaces": lambda key, query: query.reply(robot_keys.spaces, robot_spaces)}
+        log.info("aibo %s: input %s, command %s, %s, camera %s Hz", robot, input_mode, command,
+                 f"{rate_hz} Hz" if rate_hz else "lockstep", camera_hz)
+        # with the camera as input, perception owns dl/<i>/spaces (its input, our output)
+        spaces_key = keys.spaces if input_mode == "joints" else ""
+        run_ticks(loop, session, keys, inbox, stop, handlers, rate_hz, sim_hz, watchdog, max_ticks, spaces_key)
+        finish(loop, latency_log, summary)
+        del held
+    return 0
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged run aibo", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", default="main")
+    parser.add_argument("--name", default="aibo")
+    parser.add_argument("--robot", default="aibo", help="robot name: its streams are under robot/<name>/")
+    parser.add_argument("--seed", type=int, default=0, help="the same seed gives the same arena and run")
+    parser.add_argument("--command", choices=("joints", "move"), default="joints")
+    parser.add_argument("--input", choices=("joints", "camera"), default="joints", dest="input_mode")
+    parser.add_argument("--rate", type=float, default=30.0, help="control rate in Hz, real time; 0 = lockstep")
+    parser.add_argument("--sim-hz", type=float, default=30.0, help="simulated ticks per second in lockstep")
+    parser.add_argument("--camera-hz", type=float, default=15.0, help="frame rate with --input joints (0: none)")
+    parser.add_argument("--watchdog", type=float, default=0.5)
+    parser.add_argument("--max-ticks", type=int, default=0)
+    parser.add_argument("--gui", action="store_true", help="PyBullet's GUI (needs a display)")
+    parser.add_argument("--latency-log", default=None)
+    parser.add_argument("--summary", default=None)
+    add_bus_args(parser)
+    a = parser.parse_args(argv)
+    return main(config_from_args(a), a.instance, a.name, a.robot, a.seed, a.command, a.input_mode, a.rate, a.sim_hz,
+                a.camera_hz, a.watchdog, a.max_ticks, a.gui, a.latency_log, a.summary)

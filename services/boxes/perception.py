@@ -1,0 +1,96 @@
+"""Perception: a robot's camera frames -> colour blobs -> the DL input (ball seeking's pre-processing).
+
+Latest-only: if frames come faster than they are processed, the stale ones are skipped (counted).
+It answers dl/<i>/spaces with its own input space and the robot's output space.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+
+import zenoh
+
+from bus_schema import Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, decode, encode
+from services.boxes.common import fetch_spaces
+from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
+                          sensor_publisher, setup_logging)
+from services.perception.blobs import DEFAULT_COLOURS, BlobDetector
+from services.perception.jpeg import decode_rgb
+
+
+def parse_colours(items: list[str] | None) -> dict | None:
+    """['pink=150,80,60,178,255,255', ...] -> {'pink': (((150, 80, 60), (178, 255, 255)),)}; several
+    entries with one name add ranges (a red hue wrapping around 0)."""
+    if not items:
+        return None
+    colours: dict = {}
+    for item in items:
+        name, _, numbers = item.partition("=")
+        try:
+            v = [int(n) for n in numbers.split(",")]
+        except ValueError:
+            v = []
+        if not name or len(v) != 6 or not all(0 <= n <= 255 for n in v) or v[0] > 179 or v[3] > 179:
+            raise SystemExit(f"--colour {item!r}: expected name=h_lo,s_lo,v_lo,h_hi,s_hi,v_hi (H 0-179, S,V 0-255)")
+        colours[name] = colours.get(name, ()) + (((v[0], v[1], v[2]), (v[3], v[4], v[5])),)
+    return colours
+
+
+def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict | None) -> int:
+    log = setup_logging("perception", name)
+    stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
+    detector = BlobDetector(colours)
+    rejects, counts = Rejects(log), collections.Counter()
+    with zenoh.open(conf) as session:
+        robot_spaces = fetch_spaces(session, robot_keys, stop, log)
+        if robot_spaces is None:
+            return 0
+        spaces = Spaces(detector.box(), robot_spaces.output, {"perception": "colour blobs", "robot": robot})
+        spaces_payload = encode(SpacesMessage(spaces.to_dict()))
+        pub = sensor_publisher(session, keys.input)
+        held = [session.declare_subscriber(robot_keys.camera, inbox.callback("frame")),
+                session.declare_queryable(keys.spaces, inbox.query_callback("spaces")),
+                session.liveliness().declare_token(keys.alive("perception", name))]
+        status = StatusPublisher(session, keys.status("perception", name), "perception", name)
+        busy = 0.0
+        log.info("blobs for %s -> %d inputs (%s)", ", ".join(detector.colours), spaces.input.dims,
+                 ", ".join(detector.describe()))
+        while not stop:
+            item, newest = inbox.get(0.1), None
+            while item is not None:
+                tag, key, raw, _ = item
+                if tag == "spaces":
+                    raw.reply(keys.spaces, spaces_payload)
+                else:
+                    frame = decode_or_reject(lambda: decode(Frame, raw, key), rejects, key)
+                    if frame is not None:
+                        counts["skipped"] += newest is not None
+                        newest = frame
+                item = inbox.get_nowait()
+            if newest is not None:
+                started = time.perf_counter()
+                try:
+                    x = detector.detect(decode_rgb(newest.jpeg))
+                except ValueError as err:  # a JPEG that does not decode
+                    rejects(robot_keys.camera, err)
+                    continue
+                pub.put(encode(Input(newest.tick, newest.stamp, x)))
+                busy += time.perf_counter() - started
+                counts["frames"] += 1
+            status.maybe_publish(lambda: (dict(counts, rejected=rejects.total),
+                                          {"ms_per_frame": round(1e3 * busy / max(1, counts["frames"]), 3)}))
+        del held
+    return 0
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged run perception", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", default="main")
+    parser.add_argument("--name", default="perception")
+    parser.add_argument("--robot", default="aibo")
+    parser.add_argument("--colour", action="append", metavar="NAME=H,S,V,H,S,V",
+                        help=f"HSV range of a colour (repeatable; default {', '.join(DEFAULT_COLOURS)})")
+    add_bus_args(parser)
+    a = parser.parse_args(argv)
+    return main(config_from_args(a), a.instance, a.name, a.robot, parse_colours(a.colour))

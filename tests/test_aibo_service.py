@@ -1,0 +1,70 @@
+"""The Aibo as a service: ears follow the mode published on the bus; frames, handler, arena, watchdog."""
+import time
+
+import numpy as np
+
+from bus_schema import (Applied, ArenaReset, Command, Frame, Handle, RobotState, SpacesMessage, decode, encode)
+from services.perception.jpeg import decode_rgb
+from services.platforms.aibo.sim import EAR_COLOURS
+from tests.harness import Probe, dogged, stop
+
+
+def latest(bucket, cls, dims=None):
+    key, raw, _ = bucket[-1]
+    return decode(cls, raw, key, dims)
+
+
+def test_aibo_service_on_the_bus(router, tmp_path):
+    aibo = dogged("run", "aibo", "--rate", "50", "--camera-hz", "10", "--watchdog", "0.3", "--connect", router,
+                  log=tmp_path / "aibo.log")
+    probe = Probe(router)
+    try:
+        # stand in for an arbitrator: the platform ticks once one is alive
+        token = probe.session.liveliness().declare_token("dl/main/alive/arbitrator/test")
+        states, frames, applied = (probe.record(k) for k in ("robot/aibo/state", "robot/aibo/camera",
+                                                             "dl/main/applied"))
+        probe.wait_for(lambda: probe.counter("aibo/aibo", "inputs") > 20 and frames, 60, "ticks and frames")
+        spaces = [r.ok for r in probe.session.get("robot/aibo/spaces", timeout=5) if r.ok]
+        assert decode(SpacesMessage, spaces[0].payload.to_bytes(), "k").spaces["output"]["names"][16] == "tail_tilt"
+        frame = latest(frames, Frame)
+        assert decode_rgb(frame.jpeg).shape == (160, 208, 3) and frame.sim_time > 0
+
+        pub = probe.session.declare_publisher("dl/main/command")
+        for mode in ("teacher", "student", "unsure"):
+            tick = probe.counter("aibo/aibo", "tick") + 100
+            for _ in range(10):
+                pub.put(encode(Command(tick, time.time(), np.zeros(18), mode, "test/x", 1.0)))
+                time.sleep(0.02)
+            probe.wait_for(lambda: states and latest(states, RobotState, {}).ear_mode == mode, 10, f"ears {mode}")
+            rgba = latest(states, RobotState).ear_rgba
+            assert np.allclose(rgba, EAR_COLOURS[mode], atol=1e-3), (mode, rgba)
+
+        # the handler's joints win over the arbitrator's: the applied command shows the handled value
+        handle = probe.session.declare_publisher("robot/aibo/handle")
+        mask, q = np.zeros(18), np.zeros(18)
+        mask[16], q[16] = 1, 0.5
+        for _ in range(10):
+            handle.put(encode(Handle(mask, q)))
+            time.sleep(0.02)
+        probe.wait_for(lambda: probe.counter("aibo/aibo", "handled") > 0, 10, "the handle taken")
+        tick = probe.counter("aibo/aibo", "tick") + 100
+        for _ in range(10):
+            pub.put(encode(Command(tick, time.time(), np.zeros(18), "student", "test/x", 1.0)))
+            time.sleep(0.02)
+        last = latest(applied, Applied, {"y": 18})
+        assert last.y[16] == 0.5 and last.y[17] == 0.0, last.y
+
+        # the arena on request: hide orange, pink at a known spot
+        probe.put("robot/aibo/arena", encode(ArenaReset(3, {"pink": [0.6, 0.0], "orange": None})))
+        probe.wait_for(lambda: probe.counter("aibo/aibo", "resets") == 1, 10, "the reset")
+        probe.wait_for(lambda: abs(latest(states, RobotState).balls["pink"][0] - 0.6) < 0.05, 10, "pink placed")
+
+        # watchdog: no fresh command -> the robot holds still
+        held = probe.counter("aibo/aibo", "held")
+        time.sleep(2.5)
+        assert probe.counter("aibo/aibo", "held") > held + 20
+        assert probe.counter("aibo/aibo", "rejected") == 0
+        token.undeclare()
+    finally:
+        probe.close()
+        assert stop(aibo) == [0]
