@@ -27,7 +27,8 @@ N_SCALARS = 4  # two spare slots keep room for additions without changing offset
  H_TRACE, R_TRACE, S_LAST) = range(13)
 N_VECTORS = 13
 
-# --- n-by-n matrices, row-major (projection-indexed ones: row i is projection i)
+# --- n-by-n matrices, row-major (projection-indexed ones: row i is projection i);
+# META_B holds exp(b), the meta-learned rate before any halving
 (METRIC_M, METRIC_D, ALPHA, META_B, META_H, U_DIR, P_LOAD, SS_XRES_YRES, SS_XRES) = range(9)
 N_MATRICES = 9
 
@@ -99,7 +100,7 @@ def init_rf(st, n, x, template, hp):
         d[i * n + i] = hp[HP_INIT_D]
         m[i * n + i] = math.sqrt(hp[HP_INIT_D])
     mat(st, ALPHA, n)[:] = hp[HP_INIT_ALPHA]
-    mat(st, META_B, n)[:] = math.log(hp[HP_INIT_ALPHA])
+    mat(st, META_B, n)[:] = hp[HP_INIT_ALPHA]  # exp of the meta log-rate b
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
