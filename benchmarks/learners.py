@@ -15,10 +15,14 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-from tqdm import tqdm
+# Run as a script, Python puts benchmarks/ first on the path, where a sibling module can
+# shadow the standard library (benchmarks/platform.py hides `platform`, which numpy needs).
+_HERE = Path(__file__).resolve().parent
+sys.path[:] = [entry for entry in sys.path if Path(entry or ".").resolve() != _HERE]
+sys.path.insert(0, str(_HERE.parent))
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
 from services.learners.tasks import (  # noqa: E402
