@@ -1,0 +1,11 @@
+"""The paper's experiments in one process: Algorithm 2 as a plain loop over the same boxes the
+services wrap (AiboPlatform, Handler, BlobDetector, teachers, learners, TeacherFirst).
+
+    user.py        the person in the loop: a teaching schedule, and answers to unsure requests
+    loop.py        one tick of Algorithm 2, and the trace every run records
+    evaluate.py    the paper's Figure 5: teacher run on every input the student saw; the PNG
+    judges.py      episode outcomes: the nose within 0.2 m of a ball
+    mirroring.py   section V.A: one teacher, and two partial teachers in turn
+    ballseek.py    section V.B: teaching, student-only episodes, the orange ball
+No bus: `benchmarks/experiments.py` prints the figures; the services run the same pieces as processes.
+"""

@@ -1,0 +1,126 @@
+"""The ball-seeking protocol: teaching by a scripted user, student-only episodes, and the orange
+ball before and after a short correction. Each phase draws its arenas and ball spots from its
+own seeded stream, so the evaluation episodes are never the teaching ones.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from services.experiments.ballseek import BALLSEEK_RATE_HZ, NEAR, BallWorld, ball_spot
+from services.experiments.loop import Trace
+from services.experiments.user import ScriptedUser
+from services.learners import make_learner
+from services.teachers.ballseek import BallSeekTeacher
+
+TEACHING_SCHEDULE = ((0.0, 30.0), (40.0, 60.0), (70.0, 80.0))  # 60 s of teaching over 80 s, as in Figure 5
+TEACHING_EPISODE_SECONDS = 15.0  # the person puts the ball elsewhere after this, or once reached
+ORANGE_FAR = 1.0  # orange episodes are 20 s, so the ball is put where the teacher reaches it in time
+PHASES = {"teach": 1, "episodes": 2, "orange_before": 3, "correct": 4, "orange_after": 5, "teacher": 2}
+
+
+def phase_rng(seed: int, phase: str) -> np.random.Generator:
+    return np.random.default_rng([seed, PHASES[phase]])
+
+
+def arena_seed(rng: np.random.Generator) -> int:
+    return int(rng.integers(1_000_000))
+
+
+def teach(world: BallWorld, learner, teacher, user: ScriptedUser, seconds: float, trace: Trace, seed: int) -> None:
+    """`seconds` of Algorithm 2 over fresh arenas with only the pink ball; the teacher is on when the
+    user says. A new arena and ball spot each time the ball is reached or after 15 s."""
+    rng, start = phase_rng(seed, "teach"), world.clock
+    while world.clock - start < seconds - 1e-9:
+        world.start(arena_seed(rng), {"pink": ball_spot(rng)})
+        length = min(TEACHING_EPISODE_SECONDS, seconds - (world.clock - start))
+        world.run(length, learner, teacher, user, trace, target="pink")
+
+
+def episodes(world: BallWorld, learner, seed: int, phase: str, count: int, seconds: float, target: str,
+             trace: Trace | None = None, teacher=None, far: float | None = None) -> list:
+    """`count` episodes of `seconds` with only the `target` ball, the student alone (or the teacher,
+    if given: its own score on the same episodes). Returns the time each reached it, or None."""
+    rng = phase_rng(seed, phase)
+    results = []
+    for _ in range(count):
+        world.start(arena_seed(rng), {target: ball_spot(rng, NEAR, far or 1.3)})
+        results.append(world.run(seconds, learner, teacher, None, trace, target=target))
+    return results
+
+
+def correct(world: BallWorld, learner, teacher, seconds: float, trace: Trace, seed: int) -> None:
+    """A short correction with the orange ball in view: the person keeps putting it down in front of
+    the robot (every 3 s) while the teacher, which ignores orange, drives."""
+    rng = phase_rng(seed, "correct")
+
+    due = [3.0]
+
+    def put_orange_ahead(w: BallWorld, t: float) -> None:
+        if t >= due[0]:
+            due[0] += 3.0
+            w.sim.place_ball("orange", ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), pose=w.pose()))
+
+    world.start(arena_seed(rng), {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4))})
+    world.run(seconds, learner, teacher, None, trace, on_tick=put_orange_ahead)
+
+
+@dataclass
+class BallSeekResult:
+    teaching_seconds: float
+    reach_times: list            # per student episode (pink): seconds to reach, or None
+    orange_before: list          # per orange-only episode before correction: approached?
+    orange_after: list
+    trace: Trace = field(repr=False)
+    spaces: object = field(repr=False)
+
+    @property
+    def success(self) -> float:
+        return float(np.mean([r is not None for r in self.reach_times]))
+
+
+def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
+                 answer_probability: float = 0.0, n_episodes: int = 20, episode_seconds: float = 30.0,
+                 n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0,
+                 rate_hz: float = BALLSEEK_RATE_HZ, **hyper_parameters) -> BallSeekResult:
+    """The whole V.B protocol for one seed. Teaching lasts until the schedule's teaching time
+    (`teach_seconds` of teacher activation at most) has been given."""
+    world = BallWorld(seed, rate_hz=rate_hz)
+    teacher = BallSeekTeacher(world.spaces)
+    learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed, **hyper_parameters)
+    user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
+    trace = Trace()
+    try:
+        teach(world, learner, teacher, user, schedule_end(schedule, teach_seconds), trace, seed)
+        taught = float(np.sum(trace.teaching)) / world.rate_hz
+        reach = episodes(world, learner, seed, "episodes", n_episodes, episode_seconds, "pink", trace)
+        before = episodes(world, learner, seed, "orange_before", n_orange, orange_seconds, "orange", trace, far=ORANGE_FAR)
+        correct(world, learner, teacher, correction_seconds, trace, seed)
+        after = episodes(world, learner, seed, "orange_after", n_orange, orange_seconds, "orange", trace, far=ORANGE_FAR)
+    finally:
+        world.close()
+    return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], trace, world.spaces)
+
+
+def schedule_end(schedule, teach_seconds: float) -> float:
+    """The time at which the schedule has given `teach_seconds` of teaching (or its end)."""
+    given = 0.0
+    for start, stop in schedule:
+        if given + (stop - start) >= teach_seconds:
+            return start + teach_seconds - given
+        given += stop - start
+    return schedule[-1][1] if schedule else 0.0
+
+
+def teacher_success(seed: int, n_episodes: int = 20, episode_seconds: float = 30.0,
+                    rate_hz: float = BALLSEEK_RATE_HZ) -> float:
+    """The teacher's own score on the student's episodes: the ceiling the student is measured against."""
+    world = BallWorld(seed, rate_hz=rate_hz)
+    try:
+        teacher = BallSeekTeacher(world.spaces)
+        dummy = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)
+        reach = episodes(world, dummy, seed, "teacher", n_episodes, episode_seconds, "pink", teacher=teacher)
+    finally:
+        world.close()
+    return float(np.mean([r is not None for r in reach]))

@@ -1,0 +1,94 @@
+"""The paper's quantitative evaluation (section V.B, Figure 5): run the teacher program on every
+input the student saw, taught or not, and plot the error between teacher and student over time
+with the spans where the teacher was active.
+
+Works on recorded arrays only (a Trace, or the recorder's log of a process run).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def teacher_outputs(teacher, inputs: np.ndarray, n_out: int | None = None) -> np.ndarray:
+    """The teacher's answer to each input row; rows where it says nothing are NaN (`n_out`
+    defaults to the teacher's output space)."""
+    n_out = n_out or teacher.spaces.output.dims
+    rows = []
+    for x in np.asarray(inputs, dtype=np.float64):
+        y, _ = teacher(x)
+        rows.append(np.full(n_out, np.nan) if y is None else np.asarray(y, dtype=np.float64))
+    return np.asarray(rows)
+
+
+def error_over_time(teacher_y: np.ndarray, student_y: np.ndarray, outputs=None, scale=None) -> np.ndarray:
+    """Per tick, the RMS over `outputs` (default all) of (teacher - student) / scale. `scale` (per
+    output, e.g. half the range) puts outputs of different units on one footing."""
+    diff = np.asarray(teacher_y, dtype=np.float64) - np.asarray(student_y, dtype=np.float64)
+    if scale is not None:
+        diff = diff / np.asarray(scale, dtype=np.float64)
+    if outputs is not None:
+        diff = diff[:, list(outputs)]
+    return np.sqrt(np.mean(diff ** 2, axis=1))
+
+
+def teaching_bands(t: np.ndarray, teaching: np.ndarray) -> list[tuple[float, float]]:
+    """(start, stop) times of each run of ticks with the teacher on; stop is the next tick's time."""
+    t, teaching = np.asarray(t, dtype=np.float64), np.asarray(teaching, dtype=bool)
+    if len(t) == 0:
+        return []
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    edges = np.diff(np.concatenate([[0], teaching.astype(int), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return [(float(t[a]), float(t[b - 1] + step)) for a, b in zip(starts, stops)]
+
+
+def moving_average(values: np.ndarray, window: int) -> np.ndarray:
+    """Trailing mean over `window` ticks (shorter at the start), so a curve is readable at 30 Hz."""
+    values = np.asarray(values, dtype=np.float64)
+    cumulative = np.concatenate([[0.0], np.cumsum(values)])
+    idx = np.arange(1, len(values) + 1)
+    lo = np.maximum(idx - window, 0)
+    return (cumulative[idx] - cumulative[lo]) / (idx - lo)
+
+
+def first_band_drop(t: np.ndarray, error: np.ndarray, teaching: np.ndarray, seconds: float = 1.0) -> tuple[float, float]:
+    """Mean error over the first and over the last `seconds` of the first teaching span: the
+    Figure 5 claim 'error goes high and then quickly falls' holds when the second is smaller."""
+    bands = teaching_bands(t, teaching)
+    if not bands:
+        raise ValueError("the teacher was never active, so there is no teaching span to measure")
+    start, stop = bands[0]
+    t, error = np.asarray(t), np.asarray(error)
+    first = error[(t >= start) & (t < min(start + seconds, stop))]
+    last = error[(t >= max(stop - seconds, start)) & (t < stop)]
+    return float(np.mean(first)), float(np.mean(last))
+
+
+def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarray, title: str,
+               ylabel: str = "RMS error", smooth_window: int = 1) -> Path:
+    """Figure 5: error against time, the teacher's active spans shaded. Saves a PNG and returns its path."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # headless: no display on CI or the benchmark machine
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3.2), dpi=110)
+    for i, (start, stop) in enumerate(teaching_bands(t, teaching)):
+        ax.axvspan(start, stop, color="tab:red", alpha=0.15, lw=0, label="teacher active" if i == 0 else None)
+    ax.plot(t, error, color="0.6", lw=0.6, label="error (per tick)")
+    if smooth_window > 1:
+        ax.plot(t, moving_average(error, smooth_window), color="tab:blue", lw=1.4, label=f"mean of {smooth_window} ticks")
+    ax.set_xlabel("time (s, simulated)")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.set_xlim(float(t[0]) if len(t) else 0, float(t[-1]) if len(t) else 1)
+    ax.set_ylim(bottom=0)
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
