@@ -202,6 +202,19 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     return y, support, math.sqrt(swv / sw + spread)
 
 
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def calibrated(support, hp):
+    """Support mapped so that LWPR's own 'covered' level w_gen reads 0.5.
+
+    LWPR creates a field wherever the strongest activation is below w_gen, i.e. it holds
+    such points unsupported; the power keeps the order of activations and puts the
+    paper's 'unsure' 0.25 at w_gen^2."""
+    w_gen = hp[HP_W_GEN]
+    if support <= 0.0 or not 0.0 < w_gen < 1.0:
+        return support
+    return support ** (math.log(0.5) / math.log(w_gen))
+
+
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
 def predict_many(rfs, nreg, n_rfs, hp, xs):
     """Predictions, confidences and one-sigma intervals for each row of xs.
@@ -219,7 +232,7 @@ def predict_many(rfs, nreg, n_rfs, hp, xs):
             ys[row, k] = y
             intervals[row, k] = interval
             conf = min(conf, w_max)
-        confidence[row] = conf
+        confidence[row] = calibrated(conf, hp)
     return ys, confidence, intervals
 
 
@@ -236,7 +249,7 @@ def predict_one(rfs, nreg, n_rfs, hp, x, y, intervals):
     for k in range(n_rfs.shape[0]):
         y[k], w_max, intervals[k] = predict_output(rfs, nreg, n_rfs, k, x, hp, xres)
         conf = min(conf, w_max)
-    return conf
+    return calibrated(conf, hp)
 
 
 def model_floats(rfs: np.ndarray, n_rfs: np.ndarray) -> int:
