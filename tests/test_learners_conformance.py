@@ -52,3 +52,16 @@ def test_input_error_is_a_value_error():
 def test_warm_up_builds_every_learner():
     from services.learners import warm_up
     assert warm_up() >= 0.0
+
+
+@pytest.mark.parametrize("name", sorted(LEARNERS))
+@pytest.mark.parametrize("n_in,n_out", [(1, 1), (1, 3), (30, 2)])
+def test_any_input_and_output_sizes(name, n_in, n_out):
+    import numpy as np
+
+    model = make_learner(name, n_in, n_out)
+    xs = np.random.default_rng(0).uniform(-1, 1, (50, n_in))
+    model.learn_many(xs, np.tile(np.sin(xs[:, :1]), (1, n_out)))
+    prediction = model.predict_many(xs)
+    assert prediction.y.shape == (50, n_out) and prediction.confidence.shape == (50,)
+    assert np.isfinite(prediction.y).all()

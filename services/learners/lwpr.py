@@ -85,9 +85,10 @@ class LWPR(Learner):
         hp[layout.HP_ADD_THRESHOLD] = check_range("add_threshold", self.add_threshold, 0.0, 1.0)
         min_data = 2.0 * n if self.add_min_data is None else self.add_min_data
         hp[layout.HP_ADD_MIN_DATA] = check_positive("add_min_data", min_data, strictly=False)
-        hp[layout.HP_INIT_REG] = int(check_range("init_reg", self.init_reg, 1, n if n > 1 else 1))
+        # projection counts beyond the number of inputs mean 'all of them'
+        hp[layout.HP_INIT_REG] = min(n, int(check_positive("init_reg", self.init_reg)))
         max_reg = n if self.max_reg is None else self.max_reg
-        hp[layout.HP_MAX_REG] = int(check_range("max_reg", max_reg, 1, n))
+        hp[layout.HP_MAX_REG] = min(n, int(check_positive("max_reg", max_reg)))
         hp[layout.HP_PENALTY] = check_positive("penalty", self.penalty, strictly=False)
         hp[layout.HP_META_RATE] = check_positive("meta_rate", self.meta_rate, strictly=False)
         hp[layout.HP_MAX_RFS] = int(check_positive("max_rfs", self.max_rfs))
