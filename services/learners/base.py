@@ -53,6 +53,13 @@ def as_matrix(values, width: int, what: str, rows: int | None = None) -> np.ndar
     return array
 
 
+def kernel_ready(values) -> np.ndarray:
+    """C-contiguous, writeable float64 for a numba kernel: read-only arrays (np.frombuffer
+    on a bus payload) would make numba compile a second specialisation, a long stall."""
+    array = np.ascontiguousarray(values, dtype=np.float64)
+    return array if array.flags.writeable else array.copy()
+
+
 def describe_non_finite(array: np.ndarray, what: str) -> str:
     """'input 3 is nan' (or 'row 5, input 3 is inf') for the first non-finite entry."""
     index = np.argwhere(~np.isfinite(array))[0]

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Learner, Prediction, Predictions, as_matrix, as_vector, check_positive, check_range
+from .base import (
+    Learner, Prediction, Predictions, as_matrix, as_vector, check_positive, check_range, kernel_ready,
+)
 from .errors import LearnerInputError
 from . import lwpr_layout as layout
 
@@ -17,13 +19,6 @@ _INITIAL_SLOTS = 4
 
 
 _loaded_kernels = None
-
-
-def _kernel_array(values) -> np.ndarray:
-    """C-contiguous, writeable float64: read-only arrays (np.frombuffer on a bus payload)
-    would make numba compile a second specialisation, a long first-call stall."""
-    array = np.ascontiguousarray(values, dtype=np.float64)
-    return array if array.flags.writeable else array.copy()
 
 
 def _kernels():
@@ -109,7 +104,7 @@ class LWPR(Learner):
 
     # --- learning ---------------------------------------------------------------------
     def learn_one(self, x, y) -> None:
-        x, y = _kernel_array(x), _kernel_array(y)
+        x, y = kernel_ready(x), kernel_ready(y)
         if x.shape != (self.n_in,) or y.shape != (self.n_out,):
             as_vector(x, self.n_in, "inputs")  # raises with the right message
             as_vector(y, self.n_out, "outputs")
@@ -123,8 +118,8 @@ class LWPR(Learner):
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
-        xs = _kernel_array(as_matrix(xs, self.n_in, "inputs"))
-        ys = _kernel_array(as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0]))
+        xs = kernel_ready(as_matrix(xs, self.n_in, "inputs"))
+        ys = kernel_ready(as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0]))
         kernels = _kernels()
         row = 0
         while row < xs.shape[0]:
@@ -152,7 +147,7 @@ class LWPR(Learner):
 
     # --- prediction -----------------------------------------------------------------
     def predict_one(self, x) -> Prediction:
-        x = _kernel_array(x)
+        x = kernel_ready(x)
         if x.shape != (self.n_in,):
             as_vector(x, self.n_in, "inputs")
         kernels = _loaded_kernels or _kernels()
@@ -163,7 +158,7 @@ class LWPR(Learner):
         return Prediction(y, confidence, interval)
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
-        xs = _kernel_array(xs)
+        xs = kernel_ready(xs)
         ys, confidence, intervals = _kernels().predict_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs)
         return Predictions(ys, confidence, intervals)
 

@@ -6,6 +6,7 @@ mean(x) = k(x)' alpha, var(x) = k** + k(x)' C k(x). A sample whose kernel featur
 becomes a BV. Past `capacity` BVs, the one whose removal changes the posterior least
 (score |alpha_i|^2 / (Q_ii + C_ii)) is projected out. Outputs share BVs and C.
 Confidence is 1 - var(x)/k**: 0 where the prior is untouched, near 1 on well-seen data.
+The O(capacity^2) numerics are compiled (sogp_kernels), imported on first use.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import math
 
 import numpy as np
 
-from .base import Learner, Predictions, check_positive
+from .base import Learner, Predictions, check_positive, kernel_ready
 
 
 class SOGP(Learner):
@@ -26,16 +27,16 @@ class SOGP(Learner):
         if not isinstance(capacity, (int, np.integer)) or capacity < 1:
             raise ValueError(f"hyper-parameter capacity must be a positive integer, got {capacity!r}")
         # unit-scaled inputs: a width of sqrt(n_in) keeps smooth maps smooth in any dimension
-        self._scale = math.sqrt(n_in) if length_scale is None else check_positive("length_scale", length_scale)
-        self._kss = check_positive("signal_var", signal_var)
-        self._noise = check_positive("noise_var", noise_var)
-        self._tol = check_positive("tolerance", tolerance)
+        scale = math.sqrt(n_in) if length_scale is None else check_positive("length_scale", length_scale)
+        self._params = np.array([check_positive("signal_var", signal_var), scale,
+                                 check_positive("noise_var", noise_var),
+                                 check_positive("tolerance", tolerance), float(capacity)])
         cap = capacity + 1  # one spare row: a new BV is added before the worst is removed
         self._bv = np.zeros((cap, self.n_in))
         self._alpha = np.zeros((cap, self.n_out))
         self._c = np.zeros((cap, cap))
         self._q = np.zeros((cap, cap))  # inverse Gram matrix of the BVs
-        self._m = 0
+        self._count = np.zeros(1, dtype=np.int64)
 
     @classmethod
     def _unit_test_params(cls) -> dict:
@@ -43,74 +44,22 @@ class SOGP(Learner):
 
     @property
     def size(self) -> int:
-        return self._m
-
-    def _kernel(self, xs: np.ndarray, bv: np.ndarray) -> np.ndarray:
-        d2 = (xs * xs).sum(1)[:, None] - 2.0 * xs @ bv.T + (bv * bv).sum(1)[None, :]
-        return self._kss * np.exp(-0.5 * np.maximum(d2, 0.0) / self._scale ** 2)
+        return int(self._count[0])
 
     def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
-        m = self._m
-        k = self._kernel(x[None, :], self._bv[:m])[0]
-        c, q, alpha = self._c[:m, :m], self._q[:m, :m], self._alpha[:m]
-        ck = c @ k
-        var = self._kss + k @ ck
-        denom = self._noise + var
-        dq = (y - k @ alpha) / denom  # first derivative of the log evidence, per output
-        dr = -1.0 / denom
-        e_hat = q @ k
-        gamma = self._kss - k @ e_hat  # squared distance of x's feature from the BV span
-        if m > 0 and gamma < self._tol * self._kss:
-            s = ck + e_hat  # projected update: x is explained by the current BVs
-            alpha += np.outer(s, dq)
-            c += dr * np.outer(s, s)
-            return
-        s = np.append(ck, 1.0)
-        e_full = np.append(e_hat, -1.0)
-        self._bv[m] = x
-        self._alpha[m] = 0.0
-        self._c[m, : m + 1] = self._c[: m + 1, m] = 0.0
-        self._q[m, : m + 1] = self._q[: m + 1, m] = 0.0
-        self._m = m = m + 1
-        self._alpha[:m] += np.outer(s, dq)
-        self._c[:m, :m] += dr * np.outer(s, s)
-        self._q[:m, :m] += np.outer(e_full, e_full) / max(gamma, 1e-12)
-        if m > self.capacity:
-            self._remove(self._least_useful())
-
-    def _least_useful(self) -> int:
-        m = self._m
-        scores = (self._alpha[:m] ** 2).sum(1) / np.maximum(np.diag(self._q)[:m] + np.diag(self._c)[:m], 1e-12)
-        return int(np.argmin(scores))
-
-    def _remove(self, i: int) -> None:
-        """Project BV i out of the posterior (Csató & Opper, eq. 3.19-3.21)."""
-        last = self._m - 1
-        self._swap(i, last)
-        rest = slice(0, last)
-        a_star = self._alpha[last].copy()
-        c_star, q_star = self._c[last, last], self._q[last, last]
-        qs, cs = self._q[rest, last].copy(), self._c[rest, last].copy()
-        self._alpha[rest] -= np.outer(qs, a_star) / q_star
-        self._c[rest, rest] += c_star * np.outer(qs, qs) / q_star ** 2 - (np.outer(qs, cs) + np.outer(cs, qs)) / q_star
-        self._q[rest, rest] -= np.outer(qs, qs) / q_star
-        self._m = last
-
-    def _swap(self, i: int, j: int) -> None:
-        if i == j:
-            return
-        for array in (self._bv, self._alpha):
-            array[[i, j]] = array[[j, i]]
-        for matrix in (self._c, self._q):
-            matrix[[i, j]] = matrix[[j, i]]
-            matrix[:, [i, j]] = matrix[:, [j, i]]
+        _kernels().learn(self._bv, self._alpha, self._c, self._q, self._count, self._params,
+                         kernel_ready(x), kernel_ready(y))
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
-        m = self._m
-        k = self._kernel(xs, self._bv[:m])
-        mean = k @ self._alpha[:m]
-        var = self._kss + np.einsum("ij,ij->i", k @ self._c[:m, :m], k)
-        var = np.clip(var, 0.0, self._kss)
-        confidence = np.clip(1.0 - var / self._kss, 0.0, 1.0)
-        interval = np.repeat(np.sqrt(var + self._noise)[:, None], self.n_out, axis=1)
+        kss, noise = self._params[0], self._params[2]
+        mean, var = _kernels().predict(self._bv, self._alpha, self._c, self._count, self._params,
+                                       kernel_ready(xs))
+        confidence = np.clip(1.0 - var / kss, 0.0, 1.0)
+        interval = np.repeat(np.sqrt(var + noise)[:, None], self.n_out, axis=1)
         return Predictions(mean, confidence, interval)
+
+
+def _kernels():
+    from . import sogp_kernels  # first use compiles or loads from numba's cache
+
+    return sogp_kernels
