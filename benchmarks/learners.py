@@ -142,7 +142,7 @@ def main(quick: bool) -> dict:
         m = bench_mirror(name, samples if name == "lwpr" or not quick else 1000)
         u = bench_untuned(name, 2000 if quick else 5000)
         warm = first_call_seconds(name, cold=False)
-        cold = warm if (quick or name != "lwpr") else first_call_seconds(name, cold=True)
+        cold = warm if quick else first_call_seconds(name, cold=True)
         for key, value in c.items():
             figures[f"{name}_cross_{key}"] = value
         for key, value in m.items():
