@@ -251,8 +251,3 @@ def predict_one(rfs, nreg, n_rfs, hp, x, y, intervals):
         conf = min(conf, w_max)
     return calibrated(conf, hp)
 
-
-def model_floats(rfs: np.ndarray, n_rfs: np.ndarray) -> int:
-    """Floats in use (for memory reports)."""
-    return int(n_rfs.sum()) * rfs.shape[2]
-

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numba as nb
-import numpy as np
 
 # Reassociation lets LLVM vectorise the dot products; no-NaN/no-inf flags are left out
 # on purpose because the kernels test for non-finite inputs and return inf intervals.
@@ -130,7 +129,3 @@ def trace_d(st, n):
         t += d[i * n + i]
     return t
 
-
-def empty_template() -> np.ndarray:
-    """The 'no template' marker for init_rf (numba wants one type for both cases)."""
-    return np.zeros(0)

@@ -104,13 +104,7 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
                 d2wdm2 = d2wdq2 * dqdm * dqdm + dwdq * 2.0 * dxl * dxl
                 d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[l * n + l])
                 d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w_over_big_w * d2j2
-                step = min(0.1, max(-0.1, hp[HP_META_RATE] * transient * djdm * hm[i]))
-                # b holds exp(meta log-rate): exp(b - step) = b * exp(-step), and a cubic
-                # gives exp(-step) to 5e-6 for |step| <= 0.1 without an exp per entry
-                b[i] = min(E10, max(E_MINUS10, b[i] * (1.0 - step * (1.0 - step * (0.5 - step / 6.0)))))
-                alpha[i] = b[i]  # as in the reference, this also undoes any halving below
-                hm[i] = hm[i] * max(0.0, 1.0 - alpha[i] * d2jdm2 * transient) \
-                    - alpha[i] * djdm * transient
+                meta_step(i, b, alpha, hm, djdm, d2jdm2, transient, hp[HP_META_RATE])
             delta = alpha[i] * djdm * transient
             if delta > 0.1 * max_m:  # a step that would shrink M this much is a bad sign
                 alpha[i] *= 0.5
@@ -118,6 +112,17 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
             m[i] -= delta
     rebuild_d(m, d, n, diag_only)
     update_traces(st, n, n_reg, w, e_cv, h, transient, ok)
+
+
+@nb.njit(cache=True, fastmath=FAST_MATH, inline="always")
+def meta_step(i, b, alpha, hm, djdm, d2jdm2, transient, meta_rate):
+    """Incremental delta-bar-delta on entry i's learning rate (and its memory trace)."""
+    step = min(0.1, max(-0.1, meta_rate * transient * djdm * hm[i]))
+    # b holds exp(meta log-rate): exp(b - step) = b * exp(-step), and a cubic gives
+    # exp(-step) to 5e-6 for |step| <= 0.1 without an exp per entry
+    b[i] = min(E10, max(E_MINUS10, b[i] * (1.0 - step * (1.0 - step * (0.5 - step / 6.0)))))
+    alpha[i] = b[i]  # as in the reference, this also undoes any earlier halving
+    hm[i] = hm[i] * max(0.0, 1.0 - alpha[i] * d2jdm2 * transient) - alpha[i] * djdm * transient
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
