@@ -37,3 +37,15 @@ def test_stale_kernel_cache_is_dropped_once(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lwpr_kernels.sources-sha256", "other.f-1.py311.nbi"]
     (tmp_path / "lwpr_kernels.learn_one-1.py311.nbi").write_text("fresh")
     assert drop_stale_numba_cache(tmp_path) is False
+
+
+def test_norm_in_makes_scaled_inputs_equivalent():
+    xs, ys = cross_training(400)
+    plain = make_learner("lwpr", 2, 1, init_D=25.0)
+    scaled = make_learner("lwpr", 2, 1, init_D=25.0, norm_in=(100.0, 10.0))
+    plain.learn_many(xs, ys)
+    for x, y in zip(xs * [100.0, 10.0], ys):
+        scaled.learn_one(x, y)
+    probe = xs[:20]
+    assert np.allclose(plain.predict_many(probe).y, scaled.predict_many(probe * [100.0, 10.0]).y, atol=1e-9)
+    assert np.isclose(plain.predict_one(probe[0]).confidence, scaled.predict_one(probe[0] * [100.0, 10.0]).confidence)

@@ -30,7 +30,7 @@ def test_unknown_hyper_parameter_is_named(name):
 
 
 @pytest.mark.parametrize("name,param,value", [
-    ("lwpr", "w_gen", 2.0), ("lwpr", "init_D", -1.0), ("lwpr", "meta", "yes"),
+    ("lwpr", "w_gen", 2.0), ("lwpr", "init_D", -1.0), ("lwpr", "meta", "yes"), ("lwpr", "norm_in", (1.0, 0.0)),
     ("sogp", "capacity", 0), ("sogp", "noise_var", -1.0), ("knn", "k", 0),
 ])
 def test_invalid_hyper_parameter_is_named(name, param, value):

@@ -44,7 +44,8 @@ class LWPR(Learner):
                  add_threshold: float = 0.5, add_min_data: float | None = None,
                  init_reg: int = 2, max_reg: int | None = None, penalty: float = 1e-6,
                  diag_only: bool = True, update_D: bool = True, meta: bool = True,
-                 meta_rate: float = 250.0, max_rfs: int = 200, exact_fit: bool = True):
+                 meta_rate: float = 250.0, max_rfs: int = 200, exact_fit: bool = True,
+                 norm_in: float | tuple[float, ...] = 1.0):
         super().__init__(n_in, n_out, seed)
         self.init_D = init_D
         self.init_alpha = init_alpha
@@ -58,6 +59,8 @@ class LWPR(Learner):
         self.meta, self.meta_rate = meta, meta_rate
         self.max_rfs = max_rfs
         self.exact_fit = exact_fit
+        self.norm_in = norm_in
+        self._input_scale = self._input_scale_from_norm()
         self._hp = self._hyper_parameter_vector()
         self._reset()
 
@@ -96,6 +99,19 @@ class LWPR(Learner):
         hp[layout.HP_EXACT_FIT] = float(self.exact_fit)
         return hp
 
+    def _input_scale_from_norm(self) -> np.ndarray | None:
+        """1 / norm_in per input, or None when inputs are used as they are.
+
+        Widths and the metric are in normalised units: inputs whose typical range is far
+        from 1 (pixels, millimetres) should be divided by that range, as in the reference."""
+        norm = np.asarray(self.norm_in, dtype=np.float64)
+        if norm.shape not in ((), (self.n_in,)) or not np.all(np.isfinite(norm) & (norm > 0)):
+            raise ValueError(f"hyper-parameter norm_in must be a positive number or {self.n_in} of them, "
+                             f"got {self.norm_in!r}")
+        if np.all(norm == 1.0):
+            return None
+        return np.broadcast_to(1.0 / norm, (self.n_in,)).copy()
+
     def _reset(self) -> None:
         slots = min(_INITIAL_SLOTS, int(self._hp[layout.HP_MAX_RFS]))
         self._rfs = np.zeros((self.n_out, slots, layout.floats_per_rf(self.n_in)))
@@ -108,6 +124,8 @@ class LWPR(Learner):
         if x.shape != (self.n_in,) or y.shape != (self.n_out,):
             as_vector(x, self.n_in, "inputs")  # raises with the right message
             as_vector(y, self.n_out, "outputs")
+        if self._input_scale is not None:
+            x = x * self._input_scale
         kernels = _loaded_kernels or _kernels()
         status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
         while status == 1:
@@ -120,6 +138,8 @@ class LWPR(Learner):
     def learn_many(self, xs, ys) -> None:
         xs = kernel_ready(as_matrix(xs, self.n_in, "inputs"))
         ys = kernel_ready(as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0]))
+        if self._input_scale is not None:
+            xs = xs * self._input_scale
         kernels = _kernels()
         row = 0
         while row < xs.shape[0]:
@@ -150,6 +170,8 @@ class LWPR(Learner):
         x = kernel_ready(x)
         if x.shape != (self.n_in,):
             as_vector(x, self.n_in, "inputs")
+        if self._input_scale is not None:
+            x = x * self._input_scale
         kernels = _loaded_kernels or _kernels()
         y, interval = np.empty(self.n_out), np.empty(self.n_out)
         confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval)
@@ -158,7 +180,7 @@ class LWPR(Learner):
         return Prediction(y, confidence, interval)
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
-        xs = kernel_ready(xs)
+        xs = kernel_ready(xs) if self._input_scale is None else xs * self._input_scale
         ys, confidence, intervals = _kernels().predict_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs)
         return Predictions(ys, confidence, intervals)
 
