@@ -30,6 +30,7 @@ from bus_schema.spaces import Spaces  # noqa: E402
 
 FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5}
 QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 5, "orange": 2}
+LAYOUTS = {"colours": "detector layout (as wired)", "slots": "colour-blind slots (blob_slots.py)"}
 
 
 def figure5(out: Path, name: str, trace, error, title: str, window: int) -> dict:
@@ -52,25 +53,31 @@ def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
                                           mirroring.figure5_error(result.trace, spaces),
                                           f"Mirroring, one teacher (seed {seed}): head error, rad", 15)
     for seed in tqdm(seeds, desc="mirroring, two teachers", file=sys.stderr):
-        result = mirroring.two_teachers(seed, learner, seconds_each=sizes["seconds_each"])
-        two.append({"seed": seed, "after_pan": result.curve[0][1], "final_err": result.final_error})
-        if seed == seeds[0]:
-            plots["mirror_two"] = figure5(out, f"mirror_two_seed{seed}", result.trace,
-                                          mirroring.figure5_error(result.trace, spaces),
-                                          f"Mirroring, pan then tilt teacher (seed {seed}): head error, rad", 15)
+        row = {"seed": seed}
+        for masked in (False, True):
+            result = mirroring.two_teachers(seed, learner, seconds_each=sizes["seconds_each"], masked=masked)
+            tag = "_masked" if masked else ""
+            row.update({f"after_pan{tag}": result.curve[0][1], f"final_err{tag}": result.final_error})
+            if seed == seeds[0]:
+                how = "only taught outputs trained (proposal)" if masked else "as wired"
+                plots[f"mirror_two{tag}"] = figure5(out, f"mirror_two{tag}_seed{seed}", result.trace,
+                                                    mirroring.figure5_error(result.trace, spaces),
+                                                    f"Mirroring, pan then tilt teacher, {how} (seed {seed})", 15)
+        two.append(row)
     return {"one": one, "two": two, "plots": plots}
 
 
-def run_ballseeking(seeds, learner: str, sizes: dict, out: Path) -> dict:
+def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, episodes: int) -> dict:
     rows, plots = [], {}
-    for seed in tqdm(seeds, desc="ball seeking + orange", file=sys.stderr):
-        r = run_ballseek(seed, learner, n_episodes=sizes["episodes"], n_orange=sizes["orange"])
-        rows.append({"seed": seed, "taught_s": r.teaching_seconds, "success": r.success, "reach_times": r.reach_times,
-                     "orange_before": float(np.mean(r.orange_before)), "orange_after": float(np.mean(r.orange_after))})
+    for seed in tqdm(seeds, desc=f"ball seeking + orange, {inputs}", file=sys.stderr):
+        r = run_ballseek(seed, learner, n_episodes=episodes, n_orange=sizes["orange"], inputs=inputs)
+        rows.append({"seed": seed, "taught_s": r.teaching_seconds, "success": r.success if episodes else None,
+                     "reach_times": r.reach_times, "orange_before": r.orange_before, "orange_after": r.orange_after})
         if seed == seeds[0]:
-            plots["ballseek"] = figure5(out, f"ballseek_seed{seed}", r.trace, ballseek.figure5_error(r.trace, r.spaces),
-                                        f"Ball seeking (seed {seed}): teacher vs student, RMS of half-range units",
-                                        10)
+            plots[f"ballseek_{inputs}"] = figure5(out, f"ballseek_{inputs}_seed{seed}", r.trace,
+                                                  ballseek.figure5_error(r.trace, r.spaces, r.teacher),
+                                                  f"Ball seeking, {LAYOUTS[inputs]} (seed {seed}): teacher vs student",
+                                                  10)
     return {"rows": rows, "plots": plots}
 
 
@@ -79,13 +86,23 @@ def finite_or_none(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 
 
-def summarise(mirror: dict, balls: dict, teacher_ceiling: float | None) -> dict:
+def orange_figures(rows: list, tag: str) -> dict:
+    """Pooled fraction of orange-only episodes where the student reached the orange ball, and the
+    worst seed (most approaches before would be best, so its worst is the fewest; after, the most)."""
+    before = [np.mean(r["orange_before"]) for r in rows]
+    after = [np.mean(r["orange_after"]) for r in rows]
+    return {f"orange_before{tag}": round(float(np.mean(np.concatenate([r["orange_before"] for r in rows]))), 3),
+            f"orange_before{tag}_worst": round(float(np.min(before)), 3),
+            f"orange_after{tag}": round(float(np.mean(np.concatenate([r["orange_after"] for r in rows]))), 3),
+            f"orange_after{tag}_worst": round(float(np.max(after)), 3)}
+
+
+def summarise(mirror: dict, colours: dict, slots: dict, teacher_ceiling: float | None) -> dict:
     teach = [r["teach_s"] for r in mirror["one"]]
     reached = [t for t in teach if t is not None]
     two = [r["final_err"] for r in mirror["two"]]
-    rows = balls["rows"]
-    success = [r["success"] for r in rows]
-    before, after = [r["orange_before"] for r in rows], [r["orange_after"] for r in rows]
+    two_masked = [r["final_err_masked"] for r in mirror["two"]]
+    success = [r["success"] for r in colours["rows"]]
     return {
         "seeds": len(teach),
         "mirror_teach_s_median": finite_or_none(np.median([np.inf if t is None else t for t in teach])),
@@ -93,35 +110,44 @@ def summarise(mirror: dict, balls: dict, teacher_ceiling: float | None) -> dict:
         "mirror_never_under": len(teach) - len(reached),
         "mirror_two_teachers_err": round(float(np.median(two)), 4),
         "mirror_two_teachers_err_worst": round(float(np.max(two)), 4),
+        "mirror_two_teachers_err_masked": round(float(np.median(two_masked)), 4),
+        "mirror_two_teachers_err_masked_worst": round(float(np.max(two_masked)), 4),
         "ballseek_success": float(np.median(success)),
         "ballseek_success_worst": float(np.min(success)),
+        "ballseek_success_pooled": round(float(np.mean(success)), 3),
         "ballseek_teacher_success": teacher_ceiling,
-        "orange_before": float(np.median(before)),
-        "orange_before_worst": float(np.min(before)),
-        "orange_after": float(np.median(after)),
-        "orange_after_worst": float(np.max(after)),
-        "figure5_error_falls": {k: v["falls"] for k, v in {**mirror["plots"], **balls["plots"]}.items()},
+        **orange_figures(colours["rows"], ""),
+        **orange_figures(slots["rows"], "_slots"),
+        "figure5_error_falls": {k: v["falls"] for k, v in {**mirror["plots"], **colours["plots"], **slots["plots"]}.items()},
     }
 
 
 def table(s: dict, quick: bool) -> str:
     def sec(v):
         return "never" if v is None else f"{v:.1f} s"
-    lines = [f"{'figure':44} {'median':>9} {'worst':>9}  paper / target", "-" * 92,
-             f"{'1 mirroring, teaching until held-out < 0.05':44} {sec(s['mirror_teach_s_median']):>9} "
-             f"{sec(s['mirror_teach_s_worst']):>9}  < 10 s / < 5 s",
-             f"{'2 two teachers in turn, held-out RMS (rad)':44} {s['mirror_two_teachers_err']:>9.3f} "
-             f"{s['mirror_two_teachers_err_worst']:>9.3f}  merges both / < 0.05",
-             f"{'3 ball seeking, student success':44} {s['ballseek_success']:>9.0%} {s['ballseek_success_worst']:>9.0%}"
-             f"  works after < 1 min / >= 90%",
-             f"{'4 approaches orange, before correction':44} {s['orange_before']:>9.0%} {s['orange_before_worst']:>9.0%}"
-             f"  approaches it / most",
-             f"{'4 approaches orange, after <= 20 s correction':44} {s['orange_after']:>9.0%} {s['orange_after_worst']:>9.0%}"
-             f"  ignores it / <= 10%",
-             f"{'5 Figure 5 error falls while taught':44} {str(all(s['figure5_error_falls'].values())):>9}"]
+
+    def row(name, median, worst, claim):
+        return f"{name:60} {median:>8} {worst:>8}  {claim}"
+    lines = [row("figure", "median", "worst", "paper / target"), "-" * 114,
+             row("1 mirroring: teaching until held-out RMS < 0.05 rad", sec(s["mirror_teach_s_median"]),
+                 sec(s["mirror_teach_s_worst"]), "< 10 s / < 5 s"),
+             row("2 two teachers in turn, held-out RMS (rad), as wired", f"{s['mirror_two_teachers_err']:.3f}",
+                 f"{s['mirror_two_teachers_err_worst']:.3f}", "merges both / < 0.05"),
+             row("  same, only taught outputs trained (proposal)", f"{s['mirror_two_teachers_err_masked']:.3f}",
+                 f"{s['mirror_two_teachers_err_masked_worst']:.3f}", "merges both / < 0.05"),
+             row("3 ball seeking: student success, 30 s episodes", f"{s['ballseek_success']:.0%}",
+                 f"{s['ballseek_success_worst']:.0%}", "works after < 1 min / >= 90%")]
+    for tag, name in (("", "detector layout"), ("_slots", "colour-blind slots")):
+        lines += [row(f"4 approaches orange before correction, {name}", f"{s['orange_before' + tag]:.0%}",
+                      f"{s['orange_before' + tag + '_worst']:.0%}", "approaches it / most"),
+                  row(f"4 approaches orange after 20 s correction, {name}", f"{s['orange_after' + tag]:.0%}",
+                      f"{s['orange_after' + tag + '_worst']:.0%}", "ignores it / <= 10%")]
+    lines.append(row("5 Figure 5: error falls in the first teaching span", str(all(s["figure5_error_falls"].values())),
+                     "", "falls / every plot"))
+    lines.append("   orange: pooled over all episodes (median column) and the worst seed")
     if s["ballseek_teacher_success"] is not None:
-        lines.append(f"   (teacher's own success on seed 0's episodes: {s['ballseek_teacher_success']:.0%})")
-    lines.append(f"   seeds: {s['seeds']}{' (quick: shortened runs)' if quick else ''}")
+        lines.append(f"   teacher's own success on seed 0's 30 s episodes: {s['ballseek_teacher_success']:.0%}")
+    lines.append(f"   seeds: {s['seeds']}{' (quick: shortened runs, ball seeking on one seed)' if quick else ''}")
     return "\n".join(lines)
 
 
@@ -131,12 +157,14 @@ def main(seeds: int, quick: bool, out: Path, learner: str) -> dict:
     seed_list = list(range(min(seeds, 2) if quick else seeds))
     started = time.perf_counter()
     mirror = run_mirroring(seed_list, learner, sizes, out)
-    balls = run_ballseeking(seed_list[:1] if quick else seed_list, learner, sizes, out)
+    ball_seeds = seed_list[:1] if quick else seed_list
+    colours = run_ballseeking(ball_seeds, learner, sizes, out, "colours", sizes["episodes"])
+    slots = run_ballseeking(ball_seeds, learner, sizes, out, "slots", 0)  # the orange experiment only
     ceiling = None if quick else teacher_success(0, sizes["episodes"])
-    summary = summarise(mirror, balls, ceiling)
+    summary = summarise(mirror, colours, slots, ceiling)
     summary["wall_s"] = round(time.perf_counter() - started, 1)
-    (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "ballseek": balls}, indent=1,
-                                                 default=float))
+    (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "colours": colours,
+                                                  "slots": slots}, indent=1, default=float))
     print(table(summary, quick))
     print(f"plots and data: {out}")
     return summary

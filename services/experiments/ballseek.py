@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bus_schema.spaces import Spaces
+from services.experiments.blob_slots import BlobSlots, SlotBallSeekTeacher
 from services.experiments.evaluate import error_over_time, teacher_outputs
 from services.experiments.judges import REACH_RADIUS, nose_to_ball
 from services.experiments.loop import Trace, tick
@@ -25,6 +26,7 @@ from services.platforms.aibo.platform import AiboPlatform
 from services.teachers.ballseek import BallSeekTeacher
 
 BALLSEEK_RATE_HZ = 5.0
+INPUT_LAYOUTS = ("colours", "slots")
 NEAR, FAR = 0.5, 1.3  # ball distances (m) from the robot: beyond ~1.4 m a ball is under 6 pixels
 
 
@@ -46,11 +48,20 @@ class BallWorld:
     detector: BlobDetector = field(default_factory=BlobDetector)
     clock: float = 0.0  # simulated seconds over all episodes, for one continuous trace
     rate_hz: float = BALLSEEK_RATE_HZ
+    inputs: str = "colours"  # the detector's layout, or "slots" (blob_slots.py: colour-blind slots)
 
     def __post_init__(self):
+        if self.inputs not in INPUT_LAYOUTS:
+            raise ValueError(f"inputs must be one of {INPUT_LAYOUTS}, got {self.inputs!r}")
         self.platform = self.platform or AiboPlatform(seed=self.seed, command="move")
-        self.spaces = Spaces(input=self.detector.box(), output=self.platform.spaces.output,
-                             extra={"task": "ballseek", "rate_hz": self.rate_hz})
+        self._slots = BlobSlots(self.detector) if self.inputs == "slots" else None
+        box = self._slots.box() if self._slots else self.detector.box()
+        self.spaces = Spaces(input=box, output=self.platform.spaces.output,
+                             extra={"task": "ballseek", "rate_hz": self.rate_hz, "inputs": self.inputs})
+
+    def make_teacher(self):
+        """The pink-seeking teacher for this world's input layout."""
+        return SlotBallSeekTeacher(self.spaces, self._slots) if self._slots else BallSeekTeacher(self.spaces)
 
     @property
     def sim(self):
@@ -70,7 +81,8 @@ class BallWorld:
         return (float(position[0]), float(position[1])), self.sim.base_yaw()
 
     def observe(self) -> np.ndarray:
-        return self.detector.detect(self.sim.render_camera())
+        blobs = self.detector.detect(self.sim.render_camera())
+        return self._slots.encode(blobs) if self._slots else blobs
 
     def run(self, seconds: float, learner, teacher=None, user=None, trace: Trace | None = None,
             target: str | None = None, on_tick=None) -> float | None:
@@ -100,10 +112,10 @@ class BallWorld:
         self.platform.close()
 
 
-def figure5_error(trace: Trace, spaces: Spaces) -> np.ndarray:
+def figure5_error(trace: Trace, spaces: Spaces, teacher=None) -> np.ndarray:
     """Figure 5 for ball seeking: the teacher on every input the student saw, against the student's
     prediction; RMS over (forward, turn), each divided by its half-range so both count alike."""
     arrays = trace.arrays()
-    reference = teacher_outputs(BallSeekTeacher(spaces), arrays["x"])
+    reference = teacher_outputs(teacher or BallSeekTeacher(spaces), arrays["x"])
     half_range = (np.asarray(spaces.output.high) - np.asarray(spaces.output.low)) / 2
     return error_over_time(reference, arrays["student"], scale=half_range)

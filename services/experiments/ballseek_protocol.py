@@ -12,7 +12,6 @@ from services.experiments.ballseek import BALLSEEK_RATE_HZ, NEAR, BallWorld, bal
 from services.experiments.loop import Trace
 from services.experiments.user import ScriptedUser
 from services.learners import make_learner
-from services.teachers.ballseek import BallSeekTeacher
 
 TEACHING_SCHEDULE = ((0.0, 30.0), (40.0, 60.0), (70.0, 80.0))  # 60 s of teaching over 80 s, as in Figure 5
 TEACHING_EPISODE_SECONDS = 15.0  # the person puts the ball elsewhere after this, or once reached
@@ -74,6 +73,7 @@ class BallSeekResult:
     orange_after: list
     trace: Trace = field(repr=False)
     spaces: object = field(repr=False)
+    teacher: object = field(repr=False)
 
     @property
     def success(self) -> float:
@@ -83,11 +83,11 @@ class BallSeekResult:
 def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
                  answer_probability: float = 0.0, n_episodes: int = 20, episode_seconds: float = 30.0,
                  n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0,
-                 rate_hz: float = BALLSEEK_RATE_HZ, **hyper_parameters) -> BallSeekResult:
+                 rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "colours", **hyper_parameters) -> BallSeekResult:
     """The whole V.B protocol for one seed. Teaching lasts until the schedule's teaching time
     (`teach_seconds` of teacher activation at most) has been given."""
-    world = BallWorld(seed, rate_hz=rate_hz)
-    teacher = BallSeekTeacher(world.spaces)
+    world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
+    teacher = world.make_teacher()
     learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed, **hyper_parameters)
     user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
     trace = Trace()
@@ -100,7 +100,8 @@ def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 6
         after = episodes(world, learner, seed, "orange_after", n_orange, orange_seconds, "orange", trace, far=ORANGE_FAR)
     finally:
         world.close()
-    return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], trace, world.spaces)
+    return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], trace,
+                          world.spaces, teacher)
 
 
 def schedule_end(schedule, teach_seconds: float) -> float:
@@ -118,7 +119,7 @@ def teacher_success(seed: int, n_episodes: int = 20, episode_seconds: float = 30
     """The teacher's own score on the student's episodes: the ceiling the student is measured against."""
     world = BallWorld(seed, rate_hz=rate_hz)
     try:
-        teacher = BallSeekTeacher(world.spaces)
+        teacher = world.make_teacher()
         dummy = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)
         reach = episodes(world, dummy, seed, "teacher", n_episodes, episode_seconds, "pink", teacher=teacher)
     finally:

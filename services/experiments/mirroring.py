@@ -14,6 +14,7 @@ import numpy as np
 
 from services.experiments.evaluate import error_over_time, teacher_outputs
 from services.experiments.loop import Trace, tick
+from services.experiments.masked_training import PerOutputStudent
 from services.experiments.user import ScriptedUser
 from services.learners import make_learner
 from services.platforms.aibo.handler import MIRRORING_DISTRACTORS, Handler
@@ -58,10 +59,13 @@ class MirrorRun:
         return bool(self.trace.mode) and self.trace.mode[-1] == "unsure"
 
 
-def new_run(seed: int, learner_name: str = "lwpr", handler_seed: int | None = None, **hyper_parameters) -> MirrorRun:
+def new_run(seed: int, learner_name: str = "lwpr", handler_seed: int | None = None, masked: bool = False,
+            **hyper_parameters) -> MirrorRun:
+    """masked=True: a PerOutputStudent that partial teachers train only on their own outputs."""
     platform = AiboPlatform(seed=seed, command="joints", camera=False)
     platform.reset()
-    learner = make_learner(learner_name, 18, 18, seed=seed, **hyper_parameters)
+    build = PerOutputStudent if masked else make_learner
+    learner = build(learner_name, 18, 18, seed=seed, **hyper_parameters)
     handler = Handler(seed=seed if handler_seed is None else handler_seed, distractors=MIRRORING_DISTRACTORS)
     return MirrorRun(seed, learner, platform, handler)
 
@@ -130,10 +134,11 @@ def one_teacher(seed: int, learner_name: str = "lwpr", max_teach: float = 12.0, 
 
 
 def two_teachers(seed: int, learner_name: str = "lwpr", seconds_each: float = 10.0, held_out_seconds: float = 10.0,
-                 alone_seconds: float = 10.0, **hyper_parameters) -> MirrorResult:
+                 alone_seconds: float = 10.0, masked: bool = False, **hyper_parameters) -> MirrorResult:
     """Paper V.A with two partial teachers in turn: pan for `seconds_each`, then tilt; the student
-    must then mirror both axes. curve: held-out error after the pan teacher and after both."""
-    run = new_run(seed, learner_name, **hyper_parameters)
+    must then mirror both axes. curve: held-out error after the pan teacher and after both.
+    masked=True measures the proposal of masked_training.py."""
+    run = new_run(seed, learner_name, masked=masked, **hyper_parameters)
     spaces = run.platform.spaces
     checker = AiboPlatform(seed=seed, command="joints", camera=False)
     try:

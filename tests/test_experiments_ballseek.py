@@ -1,0 +1,53 @@
+"""Ball-seeking pieces: the colour-blind slot layout, its teacher, the protocol's helpers."""
+import numpy as np
+import pytest
+
+from bus_schema.spaces import Spaces
+from services.experiments.ballseek import ball_spot
+from services.experiments.ballseek_protocol import schedule_end
+from services.experiments.blob_slots import BlobSlots, SlotBallSeekTeacher
+from services.perception.blobs import BlobDetector
+from services.platforms.aibo.platform import MOVE_BOX
+from services.teachers.ballseek import BallSeekTeacher
+
+PINK, ORANGE = [1.0, 0.3, 0.1, 0.01], [1.0, -0.5, 0.2, 0.04]
+NONE = [0.0] * 4
+
+
+def test_slots_put_the_largest_blob_first_and_round_trip():
+    slots = BlobSlots()
+    both = np.array(PINK + ORANGE)
+    encoded = slots.encode(both)
+    assert slots.names()[:5] == ("blob1_seen", "blob1_x", "blob1_y", "blob1_area", "blob1_orange")
+    np.testing.assert_array_equal(encoded, ORANGE + [1.0] + PINK + [0.0])  # orange is bigger
+    np.testing.assert_array_equal(slots.decode(encoded), both)
+    assert slots.box().contains(encoded)
+
+
+def test_pink_alone_and_orange_alone_share_the_first_slot_but_the_colour():
+    slots = BlobSlots()
+    pink, orange = slots.encode(np.array(PINK + NONE)), slots.encode(np.array(NONE + PINK))
+    np.testing.assert_array_equal(pink[:4], orange[:4])
+    assert (pink[4], orange[4]) == (0.0, 1.0)
+
+
+def test_slot_teacher_seeks_pink_and_ignores_orange_like_the_colour_teacher():
+    slots = BlobSlots()
+    colour_teacher = BallSeekTeacher(Spaces(BlobDetector().box(), MOVE_BOX))
+    slot_teacher = SlotBallSeekTeacher(Spaces(slots.box(), MOVE_BOX), slots)
+    for blobs in (PINK + NONE, NONE + ORANGE, PINK + ORANGE, NONE + NONE):
+        blobs = np.array(blobs)
+        np.testing.assert_array_equal(slot_teacher(slots.encode(blobs))[0], colour_teacher(blobs)[0])
+
+
+def test_ball_spots_lie_in_the_ring_around_the_robot_pose():
+    rng = np.random.default_rng(0)
+    spots = np.array([ball_spot(rng, 0.5, 1.0, bearing=(-0.4, 0.4), pose=((1.0, 1.0), np.pi / 2)) for _ in range(200)])
+    offsets = spots - 1.0
+    distance, bearing = np.hypot(*offsets.T), np.arctan2(offsets[:, 1], offsets[:, 0]) - np.pi / 2
+    assert distance.min() >= 0.5 and distance.max() <= 1.0 and np.abs(bearing).max() <= 0.4 + 1e-9
+
+
+@pytest.mark.parametrize("teach, end", [(60, 80.0), (30, 30.0), (45, 55.0), (100, 80.0)])
+def test_schedule_end_is_when_the_schedule_has_given_the_teaching(teach, end):
+    assert schedule_end(((0, 30), (40, 60), (70, 80)), teach) == end

@@ -1,0 +1,45 @@
+"""The scripted user: teaching schedule and seeded answers to unsure requests."""
+import numpy as np
+import pytest
+
+from services.experiments.user import ScriptedUser, parse_schedule
+
+
+def timeline(user, unsure, rate=10.0):
+    return [user.teaching(k / rate, u) for k, u in enumerate(unsure)]
+
+
+def test_schedule_alone_decides_when_no_answers_are_given():
+    user = ScriptedUser(schedule=parse_schedule("1-2, 3-3.5"))
+    on = timeline(user, [True] * 50)
+    expected = [1.0 <= k / 10 < 2.0 or 3.0 <= k / 10 < 3.5 for k in range(50)]
+    assert on == expected and user.scheduled_seconds == pytest.approx(1.5)
+
+
+def test_parse_schedule_explains_a_bad_entry():
+    with pytest.raises(ValueError, match=r"schedule entry 'ten' is not 'start-stop'"):
+        parse_schedule("0-1,ten")
+    with pytest.raises(ValueError, match=r"0 <= start < stop"):
+        parse_schedule("5-2")
+
+
+def test_every_request_answered_at_probability_one_for_answer_seconds():
+    user = ScriptedUser(answer_probability=1.0, answer_seconds=0.5)
+    unsure = [False] * 5 + [True] * 20 + [False] * 5 + [True] * 3
+    on = timeline(user, unsure)
+    assert on[:5] == [False] * 5
+    assert on[5:10] == [True] * 5 and on[10:25] == [False] * 15  # one request, answered once for 0.5 s
+    assert on[30:33] == [True] * 3  # a new request after a confident spell
+
+
+def test_answers_are_repeatable_by_seed_and_differ_between_seeds():
+    rng = np.random.default_rng(0)
+    unsure = list(rng.random(2000) < 0.3)
+    runs = [timeline(ScriptedUser(answer_probability=0.4, answer_seconds=0.3, seed=s), unsure) for s in (7, 7, 8)]
+    assert runs[0] == runs[1] and runs[0] != runs[2]
+    assert 0.05 < np.mean(runs[0]) < 0.6
+
+
+def test_probability_out_of_range_is_refused():
+    with pytest.raises(ValueError, match=r"answer_probability must be in \[0, 1\]"):
+        ScriptedUser(answer_probability=1.5)
