@@ -28,8 +28,9 @@ class KNN(Learner):
         # unit-scaled inputs: neighbours within ~sqrt(n_in)/2 count as familiar
         scale = 0.5 * math.sqrt(n_in) if length_scale is None else check_positive("length_scale", length_scale)
         self._scale = scale
-        self._xs = np.zeros((0, self.n_in))
+        self._xs = np.zeros((0, self.n_in))  # grows by doubling up to max_points
         self._ys = np.zeros((0, self.n_out))
+        self._count = 0
         self._next = 0  # ring position once memory is full
 
     @classmethod
@@ -38,42 +39,60 @@ class KNN(Learner):
 
     @property
     def size(self) -> int:
-        return self._xs.shape[0]
+        return self._count
 
     def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
         self._learn_many(x[None, :], y[None, :])
 
     def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
-        room = self.max_points - self._xs.shape[0]
-        if room > 0:
-            take = min(room, xs.shape[0])
-            self._xs = np.concatenate([self._xs, xs[:take]])
-            self._ys = np.concatenate([self._ys, ys[:take]])
+        take = min(self.max_points - self._count, xs.shape[0])
+        if take > 0:
+            self._reserve(self._count + take)
+            self._xs[self._count:self._count + take] = xs[:take]
+            self._ys[self._count:self._count + take] = ys[:take]
+            self._count += take
             xs, ys = xs[take:], ys[take:]
         for x, y in zip(xs, ys):  # memory full: overwrite the oldest
             self._xs[self._next] = x
             self._ys[self._next] = y
             self._next = (self._next + 1) % self.max_points
 
+    def _reserve(self, needed: int) -> None:
+        if needed <= self._xs.shape[0]:
+            return
+        rows = min(self.max_points, max(needed, 2 * self._xs.shape[0], 64))
+        for name in ("_xs", "_ys"):
+            old = getattr(self, name)
+            grown = np.zeros((rows, old.shape[1]))
+            grown[:self._count] = old[:self._count]
+            setattr(self, name, grown)
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)  # unused rows stay out of snapshots
+        state["_xs"], state["_ys"] = self._xs[:self._count].copy(), self._ys[:self._count].copy()
+        return state
+
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         n = xs.shape[0]
         if self.size == 0:
             return Predictions(np.zeros((n, self.n_out)), np.zeros(n), np.full((n, self.n_out), np.inf))
-        ys, confidence, spread = [], [], []
-        for start in range(0, n, _CHUNK):
-            y, c, s = self._predict_chunk(xs[start:start + _CHUNK])
-            ys.append(y), confidence.append(c), spread.append(s)
-        return Predictions(np.concatenate(ys), np.concatenate(confidence), np.concatenate(spread))
+        chunks = [self._predict_chunk(xs[start:start + _CHUNK]) for start in range(0, n, _CHUNK)]
+        ys, confidence, spread = (np.concatenate(part) for part in zip(*chunks))
+        return Predictions(ys, confidence, spread)
 
     def _predict_chunk(self, xs: np.ndarray):
-        d2 = ((xs * xs).sum(1)[:, None] - 2.0 * xs @ self._xs.T + (self._xs * self._xs).sum(1)[None, :])
+        stored_x, stored_y = self._xs[:self._count], self._ys[:self._count]
+        d2 = (xs * xs).sum(1)[:, None] - 2.0 * xs @ stored_x.T + (stored_x * stored_x).sum(1)[None, :]
         np.maximum(d2, 0.0, out=d2)
         k = min(self.k, self.size)
-        nearest = np.argpartition(d2, k - 1, axis=1)[:, :k] if k < self.size else np.tile(np.arange(k), (xs.shape[0], 1))
+        if k < self.size:
+            nearest = np.argpartition(d2, k - 1, axis=1)[:, :k]
+        else:
+            nearest = np.tile(np.arange(k), (xs.shape[0], 1))
         dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
         weights = 1.0 / (dist + 1e-9)
         weights /= weights.sum(1, keepdims=True)
-        neighbours = self._ys[nearest]  # (rows, k, n_out)
+        neighbours = stored_y[nearest]  # (rows, k, n_out)
         y = np.einsum("rk,rko->ro", weights, neighbours)
         spread = np.sqrt(np.einsum("rk,rko->ro", weights, (neighbours - y[:, None, :]) ** 2))
         confidence = np.exp(-0.5 * (dist.min(1) / self._scale) ** 2)
