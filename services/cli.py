@@ -22,11 +22,15 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["run"]:
         return run_box(argv[1:])
+    if argv[:1] == ["demo"]:
+        from services.demo import cli as demo
+        return demo(argv[1:])
     parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
     parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
     parser.add_argument("--profile", default=None, help="which running profile (default: the only one)")
     sub = parser.add_subparsers(dest="verb", required=True)
     sub.add_parser("run", help="run one box: dogged run <box> --help")
+    sub.add_parser("demo", help="the headline demo: ball seeking end to end (dogged demo --help)")
     up = sub.add_parser("up", help="start a router and every service of a profile; Ctrl-C stops all")
     up.add_argument("profile_file")
     up.add_argument("--router", default=None, help="override the profile's router endpoint")

@@ -101,7 +101,7 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
     """The platform's clock: ticks at `rate_hz` (0: lockstep, the next tick as soon as this one is
     answered), applies commands, holds under the watchdog, and serves the spaces query."""
     spaces_payload = encode(SpacesMessage(loop.platform.spaces.to_dict()))
-    spaces_key = spaces_key or keys.spaces
+    spaces_key = keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
     held = [session.declare_subscriber(keys.command, inbox.callback("command")),
             session.liveliness().declare_subscriber(f"{keys.prefix}/alive/arbitrator/*", inbox.callback("arbitrator"),
                                                     history=True)]

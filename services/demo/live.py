@@ -1,0 +1,108 @@
+"""A live run: a profile brought up by the supervisor, watched and steered over the bus the way
+a person (or a scripted user) would: teachers on and off, arena resets, everything recorded.
+
+Used by `dogged demo` and by the integration tests of the paper's experiments.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import zenoh
+
+from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, RobotKeys, RobotState, TeachSwitch,
+                        decode, encode)
+from services.bus import lossless_publisher, wait_matching, zenoh_config
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+class LiveRun:
+    def __init__(self, profile: Path, run_dir: Path, endpoint: str, instance: str = "main", robot: str = "aibo"):
+        self.run_dir, self.endpoint = run_dir, endpoint
+        self.keys, self.robot = InstanceKeys(instance), RobotKeys(robot)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        self._log = open(run_dir / "supervisor.log", "ab")
+        self.supervisor = subprocess.Popen([sys.executable, "-m", "services.cli", "up", str(profile), "--router",
+                                            endpoint, "--quiet"], cwd=REPO, stdout=self._log,
+                                           stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        self.session = zenoh.open(zenoh_config(connect=[endpoint], mode="client"))
+        self.recorded: dict[str, list] = {}
+        self._held = [self._record(k) for k in (self.keys.input, self.keys.command, self.robot.state,
+                                                  f"{self.keys.prefix}/proposal/learner/*")]
+        self._teach = lossless_publisher(self.session, self.keys.teach)
+        self._arena = lossless_publisher(self.session, self.robot.arena)
+
+    def _record(self, key: str):
+        bucket = self.recorded.setdefault(key, [])
+        return self.session.declare_subscriber(key, lambda s: bucket.append((str(s.key_expr), s.payload.to_bytes())))
+
+    # --- steering ---------------------------------------------------------------------------
+    def ps(self) -> dict:
+        out = subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "ps", "--json"],
+                             cwd=REPO, capture_output=True, text=True, timeout=30)
+        return {r["name"]: r for r in json.loads(out.stdout)["services"]} if out.returncode == 0 else {}
+
+    def wait_ready(self, timeout: float = 180.0) -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            rows = self.ps()
+            if rows and all(r["state"] == "ready" for r in rows.values()):
+                return
+            if self.supervisor.poll() is not None:
+                raise RuntimeError(f"the supervisor exited; see {self.run_dir / 'supervisor.log'}")
+            time.sleep(0.5)
+        raise TimeoutError(f"services not ready after {timeout} s: {self.ps()}")
+
+    def teach(self, on: bool, teacher: str = "") -> None:
+        wait_matching(self._teach, 5.0)
+        self._teach.put(encode(TeachSwitch(teacher, on)))
+        want = f"{self.keys.prefix}/alive/teaching/{teacher or '*'}"
+        end = time.monotonic() + 10
+        while time.monotonic() < end:  # the switch is done when the teaching token says so
+            if any(r.ok is not None for r in self.session.liveliness().get(want, timeout=1)) == on:
+                return
+            time.sleep(0.02)
+        raise TimeoutError(f"teacher {teacher or '(all)'} did not switch {'on' if on else 'off'}")
+
+    def reset_arena(self, seed: int, balls: dict) -> None:
+        wait_matching(self._arena, 5.0)
+        self._arena.put(encode(ArenaReset(seed, balls)))
+
+    def tick(self) -> int:
+        inputs = self.recorded[self.keys.input]
+        return decode(Input, inputs[-1][1], self.keys.input).tick if inputs else 0
+
+    def run_ticks(self, count: int, timeout: float = 600.0) -> None:
+        target, end = self.tick() + count, time.monotonic() + timeout
+        while self.tick() < target:
+            if time.monotonic() > end:
+                raise TimeoutError(f"the loop stalled at tick {self.tick()} (wanted {target})")
+            time.sleep(0.01)
+
+    # --- reading the record -----------------------------------------------------------------
+    def inputs(self) -> list[Input]:
+        return [decode(Input, raw, key) for key, raw in self.recorded[self.keys.input]]
+
+    def commands(self) -> list[Command]:
+        return [decode(Command, raw, key) for key, raw in self.recorded[self.keys.command]]
+
+    def learner_proposals(self) -> list[Proposal]:
+        return [decode(Proposal, raw, key) for key, raw in self.recorded[f"{self.keys.prefix}/proposal/learner/*"]]
+
+    def states(self, since: int = 0) -> list[RobotState]:
+        return [decode(RobotState, raw, key) for key, raw in self.recorded[self.robot.state][since:]]
+
+    def close(self) -> int:
+        for held in self._held:
+            held.undeclare()
+        self.session.close()
+        subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "down"], cwd=REPO,
+                       capture_output=True, timeout=60)
+        try:
+            return self.supervisor.wait(60)
+        finally:
+            self._log.close()
