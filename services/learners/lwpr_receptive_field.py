@@ -148,26 +148,42 @@ def update_exact_fit(st, n, x, y, w, lam, z, pz):
     for i in range(n):
         z[i] = x[i] - c[i]
     z[n] = 1.0
-    denom = lam / w
     err = y
-    for i in range(m):  # plain row-times-vector loops: they vectorise
+    for i in range(m):
+        err -= theta[i] * z[i]
+    spread = inverse_times(inverse, m, z, pz)
+    if spread <= 0.0:
+        # rounding has cost the inverse its positive definiteness (z'Pz <= 0): start it
+        # again from the prior; the coefficients keep what they learned
+        inverse[:] = 0.0
+        for i in range(m):
+            inverse[i * m + i] = RLS_PRIOR
+        spread = inverse_times(inverse, m, z, pz)
+    inv_denom, inv_lam = 1.0 / (lam / w + spread), 1.0 / lam
+    trace = 0.0
+    for i in range(m):
+        gain = pz[i] * inv_denom
+        theta[i] += gain * err
+        for j in range(i, m):  # one triangle, mirrored: the inverse stays exactly symmetric
+            value = (inverse[i * m + j] - gain * pz[j]) * inv_lam
+            inverse[i * m + j] = value
+            inverse[j * m + i] = value
+        trace += inverse[i * m + i]
+    if trace > m * RLS_PRIOR:  # inputs that never vary would otherwise wind the inverse up
+        scale = m * RLS_PRIOR / trace
+        for i in range(m * m):
+            inverse[i] *= scale
+
+
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def inverse_times(inverse, m, z, pz):
+    """pz = P z for the row-major m-square P; returns z'P z."""
+    spread = 0.0
+    for i in range(m):
         acc = 0.0
         row = i * m
         for j in range(m):
             acc += inverse[row + j] * z[j]
         pz[i] = acc
-        denom += z[i] * acc
-        err -= theta[i] * z[i]
-    inv_denom, inv_lam = 1.0 / denom, 1.0 / lam
-    trace = 0.0
-    for i in range(m):
-        gain = pz[i] * inv_denom
-        theta[i] += gain * err
-        row = i * m
-        for j in range(m):
-            inverse[row + j] = (inverse[row + j] - gain * pz[j]) * inv_lam
-        trace += inverse[row + i]
-    if trace > m * RLS_PRIOR:  # inputs that never vary would otherwise wind the inverse up
-        scale = m * RLS_PRIOR / trace
-        for i in range(m * m):
-            inverse[i] *= scale
+        spread += z[i] * acc
+    return spread
