@@ -6,9 +6,8 @@ import importlib
 import sys
 import time
 
-BOXES = {name: f"services.boxes.{name}" for name in ("router", "platform", "demonstrator", "learner", "arbitrator")}
-BOXES |= {"aibo": "services.boxes.aibo", "perception": "services.boxes.perception",
-          "handler": "services.boxes.handler", "recorder": "services.boxes.recorder"}
+BOXES = {name: f"services.boxes.{name}" for name in ("router", "platform", "demonstrator", "learner", "arbitrator",
+                                                     "aibo", "perception", "handler", "chain")}
 
 
 def run_box(argv: list[str]) -> int:

@@ -110,7 +110,7 @@ class AiboLoop(PlatformLoop):
 
 def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, command: str, input_mode: str,
          rate_hz: float, sim_hz: float, camera_hz: float, watchdog: float, max_ticks: int, gui: bool,
-         latency_log: str | None = None, summary: str | None = None) -> int:
+         latency_log: str | None = None, summary: str | None = None, command_from: str | None = None) -> int:
     log = setup_logging("aibo", name)
     stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
     with AiboPlatform(seed=seed, command=command, gui=gui) as aibo, zenoh.open(conf) as session:
@@ -126,7 +126,9 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, co
                  f"{rate_hz} Hz" if rate_hz else "lockstep", camera_hz)
         # with the camera as input, perception owns dl/<i>/spaces (its input, our output)
         spaces_key = keys.spaces if input_mode == "joints" else ""
-        run_ticks(loop, session, keys, inbox, stop, handlers, rate_hz, sim_hz, watchdog, max_ticks, spaces_key)
+        command_key = InstanceKeys(command_from).command if command_from else None
+        run_ticks(loop, session, keys, inbox, stop, handlers, rate_hz, sim_hz, watchdog, max_ticks, spaces_key,
+                  command_key)
         finish(loop, latency_log, summary)
         del held
     return 0
@@ -148,7 +150,8 @@ def cli(argv=None) -> int:
     parser.add_argument("--gui", action="store_true", help="PyBullet's GUI (needs a display)")
     parser.add_argument("--latency-log", default=None)
     parser.add_argument("--summary", default=None)
+    parser.add_argument("--command-from", default=None, metavar="INSTANCE", help="obey a lower chained instance")
     add_bus_args(parser)
     a = parser.parse_args(argv)
     return main(config_from_args(a), a.instance, a.name, a.robot, a.seed, a.command, a.input_mode, a.rate, a.sim_hz,
-                a.camera_hz, a.watchdog, a.max_ticks, a.gui, a.latency_log, a.summary)
+                a.camera_hz, a.watchdog, a.max_ticks, a.gui, a.latency_log, a.summary, a.command_from)

@@ -97,12 +97,13 @@ class PlatformLoop:
 
 
 def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, rate_hz: float, sim_hz: float,
-              watchdog: float, max_ticks: int, spaces_key: str | None = None):
+              watchdog: float, max_ticks: int, spaces_key: str | None = None, command_key: str | None = None):
     """The platform's clock: ticks at `rate_hz` (0: lockstep, the next tick as soon as this one is
     answered), applies commands, holds under the watchdog, and serves the spaces query."""
     spaces_payload = encode(SpacesMessage(loop.platform.spaces.to_dict()))
     spaces_key = keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
-    held = [session.declare_subscriber(keys.command, inbox.callback("command")),
+    # chained instances: the robot obeys the lowest instance's commands (dl/<lower>/command)
+    held = [session.declare_subscriber(command_key or keys.command, inbox.callback("command")),
             session.liveliness().declare_subscriber(f"{keys.prefix}/alive/arbitrator/*", inbox.callback("arbitrator"),
                                                     history=True)]
     if spaces_key:
@@ -153,7 +154,7 @@ def finish(loop: PlatformLoop, latency_log: str | None, summary: str | None) -> 
 
 def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: str = "platform",
          rate_hz: float = 30.0, sim_hz: float = 30.0, watchdog: float = 0.5, max_ticks: int = 0,
-         latency_log: str | None = None, summary: str | None = None) -> int:
+         latency_log: str | None = None, summary: str | None = None, command_from: str | None = None) -> int:
     log = setup_logging("platform", name)
     stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
     with make_platform(platform, **params) as robot, zenoh.open(conf) as session:
@@ -161,7 +162,8 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
         token = session.liveliness().declare_token(keys.alive("platform", name))
         log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
                  robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
-        run_ticks(loop, session, keys, inbox, stop, {}, rate_hz, sim_hz, watchdog, max_ticks)
+        command_key = InstanceKeys(command_from).command if command_from else None
+        run_ticks(loop, session, keys, inbox, stop, {}, rate_hz, sim_hz, watchdog, max_ticks, command_key=command_key)
         finish(loop, latency_log, summary)
         token.undeclare()
     return 0
@@ -179,7 +181,9 @@ def cli(argv=None) -> int:
     parser.add_argument("--max-ticks", type=int, default=0, help="stop after this many ticks (0: run until stopped)")
     parser.add_argument("--latency-log", default=None, help="save every tick latency (s) to this .npy file at exit")
     parser.add_argument("--summary", default=None, help="write tick counts (JSON) to this file at exit")
+    parser.add_argument("--command-from", default=None, metavar="INSTANCE",
+                        help="obey this instance's commands (the lowest of a chain); default: our own")
     add_bus_args(parser)
     args = parser.parse_args(argv)
     return main(config_from_args(args), args.instance, args.platform, parse_params(args.param), args.name,
-                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log, args.summary)
+                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log, args.summary, args.command_from)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from bus_schema import check_name
 
-BOXES = ("platform", "demonstrator", "learner", "arbitrator", "aibo", "perception", "handler", "recorder")
+BOXES = ("platform", "demonstrator", "learner", "arbitrator", "aibo", "perception", "handler", "chain")
 RESTART = ("never", "on-failure", "always")
 
 

@@ -1,0 +1,47 @@
+"""Two DL instances chained: the upper one's commands are the lower one's inputs; the robot obeys the lower."""
+import numpy as np
+
+from bus_schema import Command, Input, decode
+from tests.harness import Probe, dogged, dogged_ok, stop
+
+
+def test_two_chained_instances_learn_and_drive_the_robot(router, tmp_path):
+    c = ["--connect", router]
+
+    def box(name, *args):
+        return dogged("run", *args, *c, log=tmp_path / f"{name}.log")
+
+    procs = [box("platform", "platform", "--instance", "up", "--param", "dims=2", "--param", "wander_hz=2.0",
+                 "--rate", "100", "--command-from", "low"),
+             box("up-teacher", "demonstrator", "--instance", "up", "--teacher", "sine", "--param", "frequency=1.5"),
+             box("up-learner", "learner", "--instance", "up", "--learner", "knn"),
+             box("up-arbitrator", "arbitrator", "--instance", "up"),
+             box("chain", "chain", "--upper", "up", "--lower", "low", "--consumer-spaces", "dl/up/spaces"),
+             # the lower level learns to turn the upper's decision into the robot's command (here: a gain)
+             box("low-teacher", "demonstrator", "--instance", "low", "--teacher", "copy",
+                 "--param", "pairs=[[0,0],[1,1]]"),
+             box("low-learner", "learner", "--instance", "low", "--learner", "knn"),
+             box("low-arbitrator", "arbitrator", "--instance", "low")]
+    probe = Probe(router)
+    try:
+        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "commands") > 50, 60, "the lower loop")
+        for instance in ("up", "low"):
+            result = dogged_ok("teach", "on", "--instance", instance, endpoint=router)
+            assert result.returncode == 0, result.stderr
+        probe.wait_for(lambda: probe.counter("chain/chain", "relayed") > 1700, 60, "15 s of teaching")
+        for instance in ("up", "low"):
+            assert dogged_ok("teach", "off", "--instance", instance, endpoint=router).returncode == 0
+        inputs, lower = probe.record("dl/up/input"), probe.record("dl/low/command")
+        probe.wait_for(lambda: len(lower) >= 400, 30, "400 commands after teaching")
+        xs = {m.tick: m.x for m in (decode(Input, raw, k, {"x": 4}) for k, raw, _ in inputs)}
+        cmds = [decode(Command, raw, k, {"y": 2}) for k, raw, _ in lower][50:]
+        judged = [(cmd, xs[cmd.tick]) for cmd in cmds if cmd.tick in xs]
+        student = sum(cmd.mode == "student" for cmd, _ in judged)
+        assert len(judged) > 300 and student >= 0.9 * len(judged), f"{student} of {len(judged)} in student mode"
+        error = np.array([cmd.y - 0.8 * np.sin(1.5 * x[[1, 0]]) for cmd, x in judged])
+        rms = float(np.sqrt(np.mean(error ** 2)))
+        print(f"two chained students drive the robot: RMS {rms:.4f} over {len(judged)} ticks")
+        assert rms < 0.12
+    finally:
+        probe.close()
+        assert stop(*procs) == [0] * len(procs)
