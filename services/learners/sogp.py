@@ -20,13 +20,15 @@ from .base import Learner, Predictions, check_positive, kernel_ready
 class SOGP(Learner):
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, capacity: int = 200,
                  length_scale: float | None = None, signal_var: float = 1.0,
-                 noise_var: float = 1e-3, tolerance: float = 1e-6):
+                 noise_var: float = 1e-3, tolerance: float = 1e-4):
         super().__init__(n_in, n_out, seed)
         self.capacity, self.length_scale = capacity, length_scale
         self.signal_var, self.noise_var, self.tolerance = signal_var, noise_var, tolerance
         if not isinstance(capacity, (int, np.integer)) or capacity < 1:
             raise ValueError(f"hyper-parameter capacity must be a positive integer, got {capacity!r}")
-        # unit-scaled inputs: a width of sqrt(n_in) keeps smooth maps smooth in any dimension
+        # unit-scaled inputs: a width of sqrt(n_in) keeps smooth maps smooth in any dimension;
+        # the novelty tolerance keeps the Gram matrix of the basis well conditioned (at 1e-6
+        # long streams of a smooth kernel went to NaN)
         scale = math.sqrt(n_in) if length_scale is None else check_positive("length_scale", length_scale)
         self._params = np.array([check_positive("signal_var", signal_var), scale,
                                  check_positive("noise_var", noise_var),

@@ -38,7 +38,9 @@ def learn(bv, alpha, c, q, count, params, x, y):
             e_hat[i] += q[i, j] * k[j]
         var += k[i] * ck[i]
         gamma -= k[i] * e_hat[i]
-    denom = params[NOISE] + var
+    # the posterior variance lies in [0, k**]; rounding can push it out, and a negative
+    # one would turn the next step into a huge one
+    denom = params[NOISE] + min(max(var, 0.0), params[KSS])
     dr = -1.0 / denom
     dq = np.empty(alpha.shape[1])  # first derivative of the log evidence, per output
     for o in range(alpha.shape[1]):
@@ -63,8 +65,10 @@ def rank_one(alpha, c, s, dq, dr, m):
     for i in range(m):
         for o in range(alpha.shape[1]):
             alpha[i, o] += s[i] * dq[o]
-        for j in range(m):
-            c[i, j] += dr * s[i] * s[j]
+        for j in range(i, m):  # one triangle, mirrored: C stays exactly symmetric
+            value = c[i, j] + dr * s[i] * s[j]
+            c[i, j] = value
+            c[j, i] = value
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
@@ -79,8 +83,10 @@ def add_basis_vector(bv, alpha, c, q, m, x, ck, e_hat, dq, dr, gamma):
     e_hat[m] = -1.0
     rank_one(alpha, c, ck, dq, dr, m + 1)
     for i in range(m + 1):  # inverse Gram matrix grown by the new vector
-        for j in range(m + 1):
-            q[i, j] += e_hat[i] * e_hat[j] / gamma
+        for j in range(i, m + 1):
+            value = q[i, j] + e_hat[i] * e_hat[j] / gamma
+            q[i, j] = value
+            q[j, i] = value
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
@@ -102,7 +108,7 @@ def remove(bv, alpha, c, q, count, i):
     """Project basis vector i out of the posterior (Csato & Opper, eq. 3.19-3.21)."""
     last = count[0] - 1
     swap(bv, alpha, c, q, i, last)
-    inv_q = 1.0 / q[last, last]
+    inv_q = 1.0 / max(q[last, last], 1e-12)  # Q is positive definite; rounding aside
     c_star = c[last, last]
     q_col, c_col = q[:last, last].copy(), c[:last, last].copy()  # contiguous copies
     for r in range(last):
@@ -110,9 +116,11 @@ def remove(bv, alpha, c, q, count, i):
             alpha[r, o] -= q_col[r] * alpha[last, o] * inv_q
     for r in range(last):
         qr, cr = q_col[r] * inv_q, c_col[r] * inv_q
-        for s in range(last):
-            c[r, s] += c_star * qr * q_col[s] * inv_q - qr * c_col[s] - cr * q_col[s]
-            q[r, s] -= qr * q_col[s]
+        for s in range(r, last):  # symmetric updates, written to both triangles
+            c_value = c[r, s] + c_star * qr * q_col[s] * inv_q - qr * c_col[s] - cr * q_col[s]
+            q_value = q[r, s] - qr * q_col[s]
+            c[r, s], c[s, r] = c_value, c_value
+            q[r, s], q[s, r] = q_value, q_value
     count[0] = last
 
 
