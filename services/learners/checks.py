@@ -132,9 +132,10 @@ def check_memory_bounded(make: Factory) -> None:
 def check_confidence_in_unit_interval(make: Factory) -> None:
     for model in (make(), trained(make, 200)):
         confidence = model.predict_many(probe_inputs()).confidence
-        assert np.all(np.isfinite(confidence)) and np.all((confidence >= 0) & (confidence <= 1))
+        in_range = np.all(np.isfinite(confidence)) and np.all((confidence >= 0) & (confidence <= 1))
+        assert in_range, f"confidence must be finite and in [0, 1], got {confidence.min()}..{confidence.max()}"
         one = model.predict_one(probe_inputs()[0]).confidence
-        assert isinstance(one, float) and 0.0 <= one <= 1.0
+        assert isinstance(one, float) and 0.0 <= one <= 1.0, f"predict_one confidence {one!r} not a float in [0, 1]"
 
 
 def check_confidence_knows_what_it_knows(make: Factory) -> None:

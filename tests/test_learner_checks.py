@@ -1,0 +1,95 @@
+"""The conformance checks themselves, against deliberately broken learners (the checker
+must fail them, with the reason pinned)."""
+import numpy as np
+import pytest
+
+from services.learners.base import Learner, Predictions
+from services.learners.checks import (
+    check_confidence_in_unit_interval, check_confidence_knows_what_it_knows,
+    check_inputs_not_mutated, check_memory_bounded, check_no_aliasing,
+    check_predict_before_learn,
+)
+
+
+class MeanLearner(Learner):
+    """A correct but simple learner: the running mean, confident near seen inputs."""
+
+    def __init__(self, n_in, n_out, seed=0):
+        super().__init__(n_in, n_out, seed)
+        self._sum = np.zeros(n_out)
+        self._seen = np.zeros((0, n_in))
+
+    @property
+    def size(self):
+        return min(len(self._seen), 1)
+
+    def _learn_one(self, x, y):
+        self._sum += y
+        self._seen = x[None, :].copy() if len(self._seen) == 0 else self._seen
+
+    def _predict_many(self, xs):
+        if self._n_learned == 0:
+            return Predictions(np.zeros((len(xs), self.n_out)), np.zeros(len(xs)))
+        mean = self._sum / self._n_learned
+        near = np.exp(-np.abs(xs - self._seen[0]).max(1))
+        return Predictions(np.tile(mean, (len(xs), 1)), near)
+
+
+class Mutating(MeanLearner):
+    def _learn_one(self, x, y):
+        super()._learn_one(x, y)
+        x *= 2.0
+
+
+class Aliasing(MeanLearner):
+    def _learn_one(self, x, y):
+        super()._learn_one(x, y)
+        self._last = y  # kept by reference
+
+    def _predict_many(self, xs):
+        p = super()._predict_many(xs)
+        return p if self._n_learned == 0 else Predictions(np.tile(self._last, (len(xs), 1)), p.confidence)
+
+
+class Overconfident(MeanLearner):
+    def _predict_many(self, xs):
+        return Predictions(super()._predict_many(xs).y, np.ones(len(xs)))
+
+
+class OutOfRange(MeanLearner):
+    def _predict_many(self, xs):
+        return Predictions(super()._predict_many(xs).y, np.full(len(xs), 1.5))
+
+
+class Hoarding(MeanLearner):
+    def _learn_one(self, x, y):
+        super()._learn_one(x, y)
+        self._seen = np.vstack([self._seen, x])
+
+
+class ConfidentBeforeLearning(MeanLearner):
+    def _predict_many(self, xs):
+        return Predictions(np.zeros((len(xs), self.n_out)), np.full(len(xs), 0.5))
+
+
+def factory(cls):
+    return lambda seed=0: cls(3, 2, seed=seed)
+
+
+@pytest.mark.parametrize("check,broken,reason", [
+    (check_inputs_not_mutated, Mutating, "learner wrote into caller's arrays"),
+    (check_no_aliasing, Aliasing, "model aliases inputs"),
+    (check_confidence_knows_what_it_knows, Overconfident, "not below 0.25"),
+    (check_confidence_in_unit_interval, OutOfRange, r"confidence must be finite and in \[0, 1\]"),
+    (check_memory_bounded, Hoarding, "model kept growing on a stationary stream"),
+    (check_predict_before_learn, ConfidentBeforeLearning, "an unlearned model predicts zeros, confidence 0"),
+])
+def test_check_fails_a_broken_learner(check, broken, reason):
+    with pytest.raises(AssertionError, match=reason):
+        check(factory(broken))
+
+
+@pytest.mark.parametrize("check", [check_inputs_not_mutated, check_no_aliasing, check_memory_bounded,
+                                   check_confidence_in_unit_interval, check_predict_before_learn])
+def test_check_passes_the_simple_learner(check):
+    check(factory(MeanLearner))
