@@ -36,6 +36,9 @@ class InstanceKeys:
     def alive(self, role: str, name: str) -> str:
         return f"{self.prefix}/alive/{role}/{name}"
 
+    def commanding(self, name: str) -> str:
+        return f"{self.prefix}/alive/commanding/{name}"
+
     def teaching(self, name: str) -> str:
         return f"{self.prefix}/alive/teaching/{name}"
 

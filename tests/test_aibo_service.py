@@ -20,7 +20,7 @@ def test_aibo_service_on_the_bus(router, tmp_path):
     probe = Probe(router)
     try:
         # stand in for an arbitrator: the platform ticks once one is alive
-        token = probe.session.liveliness().declare_token("dl/main/alive/arbitrator/test")
+        token = probe.session.liveliness().declare_token("dl/main/alive/commanding/test")
         states, frames, applied = (probe.record(k) for k in ("robot/aibo/state", "robot/aibo/camera",
                                                              "dl/main/applied"))
         probe.wait_for(lambda: probe.counter("aibo/aibo", "inputs") > 20 and frames, 60, "ticks and frames")

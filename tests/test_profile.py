@@ -26,6 +26,8 @@ def test_shipped_profiles_are_valid():
     ("[profile]\nname = 'x'", "services: at least one"),
     ("[servics.a]\nbox = 'learner'", "servics: unknown table"),
     ("[services.a\n", "not valid TOML"),
+    ("[services.a]\nbox = 'learner'\nafter = ['b']", "services.a.after: 'b' is not another service"),
+    ("[services.a]\nbox='learner'\nafter=['b']\n[services.b]\nbox='learner'\nafter=['a']", "cycle"),
 ])
 def test_errors_name_the_field(tmp_path, text, message):
     with pytest.raises(ProfileError, match=message.replace("(", r"\(").replace("[", r"\[")):

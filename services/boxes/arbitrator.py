@@ -150,14 +150,14 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
         held.append(session.declare_subscriber(keys.select_learner, inbox.callback("select")))
         held.append(session.declare_queryable(keys.train_recent, inbox.query_callback("recent")))
         status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name)
-        # alive only once a platform hears our commands: the platform's first tick waits for this token
-        while not stop and not arb.command_pub.matching_status.matching:
-            time.sleep(0.005)
         held.append(session.liveliness().declare_token(keys.alive("arbitrator", name)))
+        commanding = None  # declared once a platform hears our commands: platforms wait for it to tick
         log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
                  strategy, unsure_below)
         handlers = {"input": arb.on_input, "proposal": arb.on_proposal, "select": arb.on_select}
         while not stop:
+            if commanding is None and arb.command_pub.matching_status.matching:
+                commanding = session.liveliness().declare_token(keys.commanding(name))
             now = time.monotonic()
             deadline = arb.table.next_deadline()
             item = inbox.get(0.05 if deadline is None else min(0.05, max(0.0, deadline - now)))

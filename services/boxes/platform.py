@@ -85,7 +85,7 @@ class PlatformLoop:
         answered = len([t for t in self.answered if t <= self.tick])
         missing = sorted(set(range(1, self.tick + 1)) - self.answered)
         return {"ticks": self.tick, "commands": self.counts["commands"], "answered": answered,
-                "unanswered": self.tick - answered, "first_unanswered": missing[:20], "held": self.counts["held"],
+                "unanswered": self.tick - answered, "first_unanswered": missing[:1000], "held": self.counts["held"],
                 "rejected": self.rejects.total}
 
     def status(self):
@@ -104,7 +104,7 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
     spaces_key = keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
     # chained instances: the robot obeys the lowest instance's commands (dl/<lower>/command)
     held = [session.declare_subscriber(command_key or keys.command, inbox.callback("command")),
-            session.liveliness().declare_subscriber(f"{keys.prefix}/alive/arbitrator/*", inbox.callback("arbitrator"),
+            session.liveliness().declare_subscriber(f"{keys.prefix}/alive/commanding/*", inbox.callback("arbitrator"),
                                                     history=True)]
     if spaces_key:
         held.append(session.declare_queryable(spaces_key, inbox.query_callback("spaces")))

@@ -26,6 +26,7 @@ class ServiceSpec:
     backoff_s: float = 0.5
     ready_timeout_s: float = 60.0
     env: dict = field(default_factory=dict)
+    after: tuple[str, ...] = ()   # start once these services are ready
 
     @property
     def role(self) -> str:
@@ -58,7 +59,7 @@ def _get(table: dict, key: str, kind, where: str, default=None, choices=None):
 
 
 def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
-    known = {"box", "args", "instance", "restart", "max_restarts", "backoff_s", "ready_timeout_s", "env"}
+    known = {"box", "args", "instance", "restart", "max_restarts", "backoff_s", "ready_timeout_s", "env", "after"}
     for key in table:
         if key not in known:
             raise ProfileError(f"{where}.{key}: unknown field; known: {', '.join(sorted(known))}")
@@ -69,6 +70,9 @@ def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
     args = _get(table, "args", list, where, [])
     if not all(isinstance(a, str) for a in args):
         raise ProfileError(f"{where}.args: expected a list of strings")
+    after = _get(table, "after", list, where, [])
+    if not all(isinstance(a, str) for a in after):
+        raise ProfileError(f"{where}.after: expected a list of service names")
     spec = ServiceSpec(
         name=name, box=_get(table, "box", str, where, choices=BOXES),
         instance=_get(table, "instance", str, where, instance), args=tuple(args),
@@ -76,7 +80,7 @@ def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
         max_restarts=_get(table, "max_restarts", int, where, 5),
         backoff_s=float(_get(table, "backoff_s", (int, float), where, 0.5)),
         ready_timeout_s=float(_get(table, "ready_timeout_s", (int, float), where, 60.0)),
-        env={str(k): str(v) for k, v in _get(table, "env", dict, where, {}).items()})
+        env={str(k): str(v) for k, v in _get(table, "env", dict, where, {}).items()}, after=tuple(after))
     if spec.max_restarts < 0 or spec.backoff_s < 0 or spec.ready_timeout_s <= 0:
         raise ProfileError(f"{where}: max_restarts and backoff_s must be >= 0, ready_timeout_s > 0")
     return spec
@@ -106,4 +110,22 @@ def load_profile(path: str | Path, router: str | None = None) -> Profile:
     if not isinstance(services, dict) or not services:
         raise ProfileError("services: at least one [services.<name>] table is required")
     specs = tuple(_service(n, t if isinstance(t, dict) else {}, instance, f"services.{n}") for n, t in services.items())
+    names = {s.name for s in specs}
+    for spec in specs:
+        for other in spec.after:
+            if other not in names or other == spec.name:
+                raise ProfileError(f"services.{spec.name}.after: {other!r} is not another service of this profile")
+    _check_no_cycle(specs)
     return Profile(name, path, router, log_dir, specs)
+
+
+def _check_no_cycle(specs) -> None:
+    after = {s.name: set(s.after) for s in specs}
+    done: set[str] = set()
+    while after:
+        free = [n for n, deps in after.items() if deps <= done]
+        if not free:
+            raise ProfileError(f"services: 'after' makes a cycle among {', '.join(sorted(after))}")
+        for n in free:
+            done.add(n)
+            del after[n]

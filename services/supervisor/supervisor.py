@@ -129,16 +129,19 @@ class Supervisor:
             held.append(session.declare_queryable(supervisor_key(prof.name, "*"),
                                                   self.inbox.query_callback("control")))
             held.append(session.liveliness().declare_token(f"dogged/supervisor/{prof.name}"))
-            for spec in prof.services:
-                self.add(spec)
+            waiting = list(prof.services)  # started in order once what they come `after` is ready
             announced, started = False, time.monotonic()
             while not stop and not self.stopping:
+                for spec in [s for s in waiting if all(self.procs.get(a) and self.procs[a].state == "ready"
+                                                        for a in s.after)]:
+                    waiting.remove(spec)
+                    self.add(spec)
                 item = self.deferred.pop(0) if self.deferred else self.inbox.get(0.05)
                 while item is not None:
                     self.on_event(item, session)
                     item = self.inbox.get_nowait()
                 self.watch()
-                if not announced and self.all_ready():
+                if not announced and not waiting and self.all_ready():
                     announced = True
                     log.info("all %d services of %s are ready (%.1f s)", len(prof.services), prof.name,
                              time.monotonic() - started)
