@@ -159,16 +159,17 @@ def update_exact_fit(st, n, x, y, w, lam, z, pz):
         for i in range(m):
             inverse[i * m + i] = RLS_PRIOR
         spread = inverse_times(inverse, m, z, pz)
-    inv_denom, inv_lam = 1.0 / (lam / w + spread), 1.0 / lam
+    root, inv_lam = math.sqrt(1.0 / (lam / w + spread)), 1.0 / lam
+    for i in range(m):
+        pz[i] *= root  # now a = P z / sqrt(denom): the update is a a', symmetric bit for bit
     trace = 0.0
     for i in range(m):
-        gain = pz[i] * inv_denom
-        theta[i] += gain * err
-        for j in range(i, m):  # one triangle, mirrored: the inverse stays exactly symmetric
-            value = (inverse[i * m + j] - gain * pz[j]) * inv_lam
-            inverse[i * m + j] = value
-            inverse[j * m + i] = value
-        trace += inverse[i * m + i]
+        theta[i] += pz[i] * root * err
+        a_i = pz[i]
+        row = i * m
+        for j in range(m):  # whole rows: they vectorise
+            inverse[row + j] = (inverse[row + j] - a_i * pz[j]) * inv_lam
+        trace += inverse[row + i]
     if trace > m * RLS_PRIOR:  # inputs that never vary would otherwise wind the inverse up
         scale = m * RLS_PRIOR / trace
         for i in range(m * m):
