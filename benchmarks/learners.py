@@ -162,6 +162,8 @@ def main(quick: bool) -> dict:
         figures[f"{name}_first_call_s"], figures[f"{name}_first_call_cold_s"] = warm, cold
         rows.append((name, c, m, u, warm, cold))
     print_table(rows, epochs)
+    if "lwpr_cross_nmse" in figures:
+        print_closing_note(figures, epochs)
     return figures
 
 
@@ -189,6 +191,28 @@ def print_table(rows, epochs: int) -> None:
     print(f"{'learner':8} {'cross10 nMSE':>12} {'size':>5} {'multi3 nMSE':>12} {'size':>5}")
     for name, _, _, u, _, _ in rows:
         print(f"{name:8} {u['cross10_nmse']:>12.3f} {u['cross10_size']:>5} {u['multi3_nmse']:>12.3f} {u['multi3_size']:>5}")
+
+
+def print_closing_note(figures: dict, epochs: int) -> None:
+    """Our LWPR beside the reference library, figure by figure."""
+    ref = REFERENCE
+    pairs = [
+        ("cross nMSE (lower is better)", figures["lwpr_cross_nmse"], ref["cross_nmse"], ".3f"),
+        ("cross receptive fields", figures["lwpr_cross_rfs"], ref["cross_rfs"], "d"),
+        ("cross updates/s, learn_one", figures["lwpr_cross_updates_per_s"], ref["cross_updates_per_s"], ",.0f"),
+        ("cross updates/s, learn_many", figures["lwpr_cross_batch_updates_per_s"], ref["cross_updates_per_s"], ",.0f"),
+        ("cross predictions/s, predict_one", figures["lwpr_cross_predictions_per_s"], ref["cross_predictions_per_s"], ",.0f"),
+        ("cross predictions/s, predict_many", figures["lwpr_cross_batch_predictions_per_s"],
+         ref["cross_predictions_per_s"], ",.0f"),
+        ("mirror samples to < 0.05 rad", figures["lwpr_mirror_samples_to_005"] or float("nan"),
+         ref["mirror_samples_to_005"], ",.0f"),
+        ("mirror updates/s", figures["lwpr_mirror_updates_per_s"], ref["mirror_updates_per_s"], ",.0f"),
+    ]
+    print()
+    print("LWPR beside the reference C library (v1.2.6 through its Python binding)"
+          + ("" if epochs == 20 else f"; cross here after {epochs} epochs, the reference's after 20") + ":")
+    for label, ours, theirs, fmt in pairs:
+        print(f"  {label:36} ours {ours:>12{fmt}}   reference {theirs:>12{fmt}}   ratio {ours / theirs:5.2f}")
 
 
 if __name__ == "__main__":
