@@ -23,12 +23,14 @@ class SineTeacher:
 
 
 class CopyTeacher:
-    """Copies chosen inputs to chosen outputs ([[input, output], ...]); every other output is `rest`,
-    or, with partial=True, left to the student (the teacher speaks only for its outputs: `mask`)."""
+    """Copies chosen inputs to chosen outputs ([[input, output], ...], or [input, output, gain, offset]
+    for y = gain * x + offset); every other output is `rest`, or, with partial=True, left to the
+    student (the teacher speaks only for its outputs: `mask`)."""
 
     def __init__(self, spaces: Spaces, pairs: list = ((0, 0),), rest: float = 0.0, partial: bool = False):
         self.spaces, self.rest = spaces, rest
-        self.pairs = [(int(i), int(o)) for i, o in pairs]
+        self.pairs = [(int(p[0]), int(p[1])) for p in pairs]
+        self.maps = [(float(p[2]), float(p[3])) if len(p) == 4 else (1.0, 0.0) for p in pairs]
         for i, o in self.pairs:
             if not (0 <= i < spaces.input.dims and 0 <= o < spaces.output.dims):
                 raise ValueError(f"pair ({i}, {o}) is outside {spaces.input.dims} inputs / {spaces.output.dims} outputs")
@@ -39,13 +41,20 @@ class CopyTeacher:
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
         y = np.full(self.spaces.output.dims, self.rest, dtype=np.float64)
-        for i, o in self.pairs:
-            y[o] = x[i]
+        for (i, o), (gain, offset) in zip(self.pairs, self.maps):
+            y[o] = gain * x[i] + offset
         return self.spaces.output.clip(y), 1.0
 
 
-# Aibo joint order (services.platforms.aibo): 12 head_tilt, 13 head_pan, 16 tail_tilt, 17 tail_pan
-_MIRROR_AXES = {"tilt": (16, 12), "pan": (17, 13)}
+def _mirror_axes() -> dict:
+    """(tail joint, head joint, gain, offset) per axis. Pan is a plain copy (the tail's +-45 deg fit
+    the head's range); the tail tilts over 5..60 deg but the head over -75..0 deg, so a plain copy
+    would always clip to 0: tilt maps the tail's range onto the head's (tail raised -> head up)."""
+    from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT, JOINT_LIMITS, TAIL_PAN, TAIL_TILT
+    (tail_low, tail_high), (head_low, head_high) = JOINT_LIMITS[TAIL_TILT], JOINT_LIMITS[HEAD_TILT]
+    gain = (head_low - head_high) / (tail_high - tail_low)
+    return {"tilt": (TAIL_TILT, HEAD_TILT, float(gain), float(head_high - gain * tail_low)),
+            "pan": (TAIL_PAN, HEAD_PAN, 1.0, 0.0)}
 
 
 class MirrorTeacher(CopyTeacher):
@@ -54,7 +63,8 @@ class MirrorTeacher(CopyTeacher):
     def __init__(self, spaces: Spaces, axes: str = "both"):
         if axes not in ("both", "pan", "tilt"):
             raise ValueError(f"axes must be 'both', 'pan' or 'tilt', got {axes!r}")
-        chosen = _MIRROR_AXES.values() if axes == "both" else [_MIRROR_AXES[axes]]
+        table = _mirror_axes()
+        chosen = table.values() if axes == "both" else [table[axes]]
         # a one-axis teacher leaves the other outputs to the student, so two teachers can merge
         super().__init__(spaces, pairs=list(chosen), partial=axes != "both")
 

@@ -1,0 +1,64 @@
+"""Mirroring (paper V.A) as separate processes: the Aibo in lockstep at 30 Hz, a handler moving
+its tail (and distractors), mirror teachers, a learner and the arbitrator under the supervisor."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bus_schema.spaces import Spaces
+from services.demo.live import LiveRun
+from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT
+from services.platforms.aibo.platform import JOINTS_BOX
+from services.teachers.functions import MirrorTeacher
+
+RATE = 30.0
+PROFILE = """
+[profile]
+name = "live-mirroring"
+log_dir = "{logs}"
+
+[services.aibo]
+box = "aibo"
+args = ["--command", "joints", "--input", "joints", "--rate", "0", "--sim-hz", "{rate}", "--camera-hz", "0",
+        "--seed", "{seed}"]
+
+[services.handler]
+box = "handler"
+args = ["--distractors", "mirroring", "--seed", "{seed}"]
+{teachers}
+[services.learner]
+box = "learner"
+args = ["--learner", "{learner}", "--seed", "{seed}"]
+
+[services.arbitrator]
+box = "arbitrator"
+"""
+TEACHER = """
+[services.{name}]
+box = "demonstrator"
+args = ["--teacher", "mirror", "--param", "axes={axes}"]
+"""
+
+
+def start_mirroring(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0,
+                    teachers: dict | None = None) -> LiveRun:
+    """teachers: service name -> axes ('both', 'pan', 'tilt'); default one teacher 'mirror' for both."""
+    teachers = teachers or {"mirror": "both"}
+    run_dir.mkdir(parents=True, exist_ok=True)
+    profile = run_dir / "mirroring.toml"
+    blocks = "".join(TEACHER.format(name=n, axes=a) for n, a in teachers.items())
+    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, seed=seed, learner=learner, teachers=blocks))
+    run = LiveRun(profile, run_dir, endpoint)
+    run.wait_ready()
+    return run
+
+
+def student_error(run: LiveRun, since_tick: int, axes=("pan", "tilt")) -> tuple[float, int]:
+    """RMS (rad) over the head axes of (teacher's answer - the command) for student ticks since `since_tick`."""
+    teacher = MirrorTeacher(Spaces(JOINTS_BOX, JOINTS_BOX))
+    inputs = {m.tick: m.x for m in run.inputs() if m.tick >= since_tick}
+    outputs = [{"tilt": HEAD_TILT, "pan": HEAD_PAN}[a] for a in axes]
+    errors = [teacher(inputs[c.tick])[0][outputs] - c.y[outputs]
+              for c in run.commands() if c.tick in inputs and c.mode != "teacher"]
+    return (float(np.sqrt(np.mean(np.square(errors)))) if errors else float("inf")), len(errors)

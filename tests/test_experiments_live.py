@@ -1,0 +1,40 @@
+"""The paper's experiments, shortened, with real processes: the learned behaviour is asserted."""
+import numpy as np
+import pytest
+
+from services.demo.ballseek import run_ballseek_live
+from services.demo.mirroring import RATE, start_mirroring, student_error
+from tests.harness import free_port
+
+
+def endpoint():
+    return f"tcp/127.0.0.1:{free_port()}"
+
+
+def test_mirroring_one_teacher_live(tmp_path):
+    run = start_mirroring(tmp_path, endpoint(), learner="lwpr")
+    try:
+        run.run_ticks(30)
+        untaught, _ = student_error(run, 0)
+        run.teach(True)
+        run.run_ticks(int(10 * RATE))           # 10 s of teaching (the paper: under 10 s)
+        run.teach(False)
+        off = run.tick()
+        run.run_ticks(int(5 * RATE))            # 5 s of the student alone, the tail still moving
+        error, n = student_error(run, off + 3)
+    finally:
+        assert run.close() == 0
+    print(f"mirroring live: untaught RMS {untaught:.3f} rad, after 10 s of teaching {error:.5f} rad over {n} ticks")
+    assert n >= 100 and error < 0.1 < untaught
+
+
+@pytest.mark.parametrize("learner", ["lwpr"])
+def test_ballseek_live_student_reaches_the_ball(tmp_path, learner):
+    summary = run_ballseek_live(tmp_path, endpoint(), learner=learner, episodes=3, log=print)
+    assert summary["supervisor_exit"] == 0
+    assert summary["successes"] >= 2, summary
+    assert (tmp_path / "figure5.png").stat().st_size > 10_000
+    data = np.load(tmp_path / "run.npz")
+    first_teach = np.flatnonzero(data["teaching"])[:25]
+    # Figure 5: the error falls while the teacher is active
+    assert summary["error_student"] < 0.25 and np.mean(data["error"][first_teach[:5]]) > summary["error_teaching"]
