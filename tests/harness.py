@@ -17,6 +17,17 @@ from services.bus import zenoh_config
 REPO = Path(__file__).resolve().parents[1]
 
 
+def wait_until(condition, timeout: float, what: str = "condition", poll: float = 0.05):
+    """condition()'s first truthy value within `timeout` seconds, else an AssertionError naming `what`."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(poll)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -84,13 +95,7 @@ class Probe:
         return msg.state.get(name, default) if msg else default
 
     def wait_for(self, condition, timeout: float, what: str = "condition"):
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            value = condition()
-            if value:
-                return value
-            time.sleep(0.05)
-        raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+        return wait_until(condition, timeout, what)
 
     def put(self, key: str, payload: bytes) -> None:
         # lossless on purpose: a test counts what arrives, so the sender must not drop under congestion

@@ -4,7 +4,7 @@ import os
 import signal
 import time
 
-from tests.harness import Probe, dogged, dogged_ok, free_port
+from tests.harness import Probe, dogged, dogged_ok, free_port, wait_until
 
 PROFILE = """
 [profile]
@@ -44,13 +44,7 @@ def alive(pid):
 
 
 def wait(condition, timeout, what):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.2)
-    raise AssertionError(f"timed out waiting for {what}")
+    return wait_until(condition, timeout, what, poll=0.2)
 
 
 def test_up_ps_sigkill_restart_down(tmp_path):
