@@ -32,3 +32,10 @@ def test_lwpr_knows_it_does_not_know_before_teaching_far_away():
     model = make_learner("lwpr", 18, 18, seed=0)
     model.learn_many(*mirror_samples(300, seed=0))
     assert model.predict_one(np.full(18, 4.0)).confidence < 0.25
+
+
+def test_lwpr_mirroring_within_300_samples_the_papers_ten_seconds():
+    model = make_learner("lwpr", 18, 18, seed=0)
+    model.learn_many(*mirror_samples(300, seed=0))
+    held_out, truth = mirror_samples(1000, seed=1)
+    assert worst_error(model.predict_many(held_out).y, truth) < 0.05
