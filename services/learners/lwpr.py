@@ -16,6 +16,7 @@ from .errors import LearnerInputError
 from . import lwpr_layout as layout
 
 _INITIAL_SLOTS = 4
+_new_tuple = tuple.__new__
 
 
 _loaded_kernels = None
@@ -177,7 +178,8 @@ class LWPR(Learner):
         confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval)
         if confidence < 0.0:  # the kernel found a non-finite input
             as_vector(x, self.n_in, "inputs")
-        return Prediction(y, confidence, interval)
+        # tuple.__new__ skips NamedTuple's Python-level __new__: 0.2 µs of a 2.5 µs call
+        return _new_tuple(Prediction, (y, confidence, interval))
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         xs = kernel_ready(xs) if self._input_scale is None else xs * self._input_scale
