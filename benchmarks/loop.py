@@ -6,6 +6,12 @@ the same run. Prints a table; the last line is one JSON object of the figures.
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+# run as a script, sys.path[0] is benchmarks/, whose platform.py would shadow the standard library's
+sys.path[0] = str(Path(__file__).resolve().parents[1])
+
 import argparse
 import json
 import sys
@@ -15,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.udp_echo import round_trips  # noqa: E402
 from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
 

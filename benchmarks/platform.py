@@ -7,6 +7,12 @@ real-time factor is simulated seconds per wall second over the same window. Last
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+# run as a script, sys.path[0] is benchmarks/, whose platform.py would shadow the standard library's
+sys.path[0] = str(Path(__file__).resolve().parents[1])
+
 import argparse
 import contextlib
 import json
@@ -18,7 +24,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bus_schema import Clock, decode  # noqa: E402
 from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
 

@@ -1,6 +1,12 @@
 """The floor of the loop benchmark: a raw UDP round trip between two processes on loopback."""
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+# run as a script, sys.path[0] is benchmarks/, whose platform.py would shadow the standard library's
+sys.path[0] = str(Path(__file__).resolve().parents[1])
+
 import socket
 import sys
 import time
