@@ -27,7 +27,7 @@ def test_teach_on_then_off_student_reproduces(router, tmp_path, learner):
         result = dogged_ok("teach", "on", "--teacher", "sine", endpoint=router)
         assert result.returncode == 0, result.stderr
         assert "teaching on" in result.stdout
-        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "train_pairs") >= 1500, 60, "1500 pairs")
+        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "train_pairs") >= 2000, 60, "2000 pairs (20 s)")
         assert dogged_ok("teach", "off", endpoint=router).returncode == 0
         inputs, commands, pairs = (probe.record(f"dl/main/{k}") for k in ("input", "command", "train"))
         probe.wait_for(lambda: len(commands) >= 400, 30, "400 commands after teaching")

@@ -32,22 +32,33 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
         dims = {"x": spaces.input.dims}
         pub = sensor_publisher(session, keys.proposal(role, name))
         held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
         held.append(session.declare_subscriber(keys.teach, inbox.callback("teach")))
         status = StatusPublisher(session, keys.status(role, name), role, name)
         held.append(session.liveliness().declare_token(keys.alive(role, name)))
-        teaching = None
+        teaching = listening = None
+
+        def listen(on: bool):
+            # a silent teacher does not even hear the inputs: no wake-up per tick for nothing
+            nonlocal listening
+            if on and listening is None:
+                listening = session.declare_subscriber(keys.input, inbox.callback("input"))
+            elif not on and listening is not None:
+                listening.undeclare()
+                listening = None
 
         def switch(on: bool):
             nonlocal teaching
             if on and teaching is None:
+                listen(True)
                 teaching = session.liveliness().declare_token(keys.teaching(name))
                 log.info("teaching ON")
             elif not on and teaching is not None:
                 teaching.undeclare()
                 teaching = None
+                listen(False)
                 log.info("teaching OFF")
 
+        listen(role == "default")
         switch(start_on and role == "teacher")
         while not stop:
             item, newest = inbox.get(0.1), None
