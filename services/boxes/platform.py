@@ -22,6 +22,8 @@ from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_arg
 from services.params import parse_params
 from services.platforms import PLATFORMS, make_platform
 
+SUBSCRIPTION_SETTLE_S = 0.3
+
 
 class PlatformLoop:
     """Ticks, commands, the watchdog and latency for one Platform; subclasses add streams."""
@@ -112,10 +114,13 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
     period = 1.0 / rate_hz if rate_hz else None
     dt = period or 1.0 / sim_hz
     next_tick = time.monotonic()
+    # our command subscription reaches the arbitrator a moment after we declare it: the first tick
+    # waits for a commanding arbitrator and for that moment, so no command goes where we are not yet
+    settled_at = next_tick + SUBSCRIPTION_SETTLE_S
     arbitrators: set[str] = set()
     while not stop:
         now = time.monotonic()
-        waiting = not arbitrators and loop.tick == 0  # no loop yet: hold still, lose no tick
+        waiting = loop.tick == 0 and (not arbitrators or now < settled_at)  # hold still, lose no tick
         if waiting:
             next_tick = now + 0.05
         answered = loop.latest is not None and loop.latest.tick >= loop.tick

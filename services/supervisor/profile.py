@@ -43,6 +43,7 @@ class Profile:
     router: str
     log_dir: Path
     services: tuple[ServiceSpec, ...]
+    low_latency: bool = False  # hold a PM QoS request so CPUs stay out of deep idle (services.realtime)
 
 
 def _get(table: dict, key: str, kind, where: str, default=None, choices=None):
@@ -105,6 +106,7 @@ def load_profile(path: str | Path, router: str | None = None) -> Profile:
     except ValueError as err:
         raise ProfileError(f"profile: {err}") from None
     log_dir = Path(_get(head, "log_dir", str, "profile", f"runs/{name}/logs"))
+    low_latency = _get(head, "low_latency", bool, "profile", False)
     router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
     if not isinstance(services, dict) or not services:
@@ -116,7 +118,7 @@ def load_profile(path: str | Path, router: str | None = None) -> Profile:
             if other not in names or other == spec.name:
                 raise ProfileError(f"services.{spec.name}.after: {other!r} is not another service of this profile")
     _check_no_cycle(specs)
-    return Profile(name, path, router, log_dir, specs)
+    return Profile(name, path, router, log_dir, specs, low_latency)
 
 
 def _check_no_cycle(specs) -> None:

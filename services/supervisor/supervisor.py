@@ -13,6 +13,7 @@ import zenoh
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, decode, encode, supervisor_key
 from services.bus import Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
+from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 
@@ -115,6 +116,8 @@ class Supervisor:
     def run(self) -> int:
         stop = StopFlag()
         prof = self.profile
+        if prof.low_latency and hold_low_latency(log):
+            log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
         router = ServiceSpec("router", "router", "main", restart="on-failure")
         self.procs["router"] = ManagedProcess(router, box_command("router", "--listen", prof.router),
                                               prof.log_dir, self.echo)
