@@ -101,7 +101,7 @@ def decode(cls: type[T], raw: bytes, key: str, dims: dict[str, int] | None = Non
         value = data[name]
         if kind in (VECTOR, VECTORS) or (kind == OPT_VECTOR and value is not None):
             # an optional vector (e.g. a mask) has the length of the vector it qualifies
-            expected = dims.get(name, dims.get("y") if kind == OPT_VECTOR else None)
+            expected = dims.get(name, dims.get("y") if kind == OPT_VECTOR or name == "mask" else None)
             value = unpack_vector(value, key, name, expected, rows=kind == VECTORS)
         else:
             value = _check_scalar(key, name, kind, value)

@@ -72,29 +72,38 @@ class Command:
 
 @dataclass(frozen=True, slots=True)
 class TrainingPair:
-    """One (input, output) pair for the learners. (epoch, seq) numbers pairs without gaps."""
-    FIELDS = (("epoch", STR), ("seq", INT), ("tick", INT), ("x", VECTOR), ("y", VECTOR), ("source", STR))
+    """One (input, output) pair for the learners. (epoch, seq) numbers pairs without gaps. mask (0/1
+    per output, or None for all): the outputs a partial teacher taught; only those should be learned."""
+    FIELDS = (("epoch", STR), ("seq", INT), ("tick", INT), ("x", VECTOR), ("y", VECTOR), ("source", STR),
+              ("mask", OPT_VECTOR))
     epoch: str
     seq: int
     tick: int
     x: np.ndarray
     y: np.ndarray
     source: str
+    mask: np.ndarray | None = None
+
+    def check(self, key: str) -> None:
+        if self.mask is not None and not np.all((self.mask == 0) | (self.mask == 1)):
+            raise SchemaError(key, "mask", "mask values must be 0 or 1")
 
 
 @dataclass(frozen=True, slots=True)
 class PairBatch:
-    """Many training pairs in one message (history, gap filling): rows of x and y, seqs first..first+n-1."""
-    FIELDS = (("epoch", STR), ("first_seq", INT), ("x", VECTORS), ("y", VECTORS))
+    """Many training pairs in one message (history, gap filling): rows of x, y and mask (the taught
+    outputs, all 1 for a whole pair), seqs first..first+n-1."""
+    FIELDS = (("epoch", STR), ("first_seq", INT), ("x", VECTORS), ("y", VECTORS), ("mask", VECTORS))
     MAX_BYTES = 256 * 1024 * 1024
     epoch: str
     first_seq: int
     x: np.ndarray
     y: np.ndarray
+    mask: np.ndarray
 
     def check(self, key: str) -> None:
-        if len(self.x) != len(self.y):
-            raise SchemaError(key, "y", f"{len(self.y)} rows for {len(self.x)} inputs")
+        if not len(self.x) == len(self.y) == len(self.mask):
+            raise SchemaError(key, "y", f"{len(self.y)} rows of y and {len(self.mask)} of mask for {len(self.x)} inputs")
 
 
 @dataclass(frozen=True, slots=True)

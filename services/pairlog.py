@@ -19,6 +19,7 @@ class PairLog:
         self.n_in, self.n_out = n_in, n_out
         self._x = np.empty((1024, n_in))
         self._y = np.empty((1024, n_out))
+        self._mask = np.empty((1024, n_out))  # the outputs taught: all 1 for a whole pair
         self._n = 0
         self.path = Path(path) if path else None
         self._file = None
@@ -26,19 +27,18 @@ class PairLog:
     def __len__(self) -> int:
         return self._n
 
-    def append(self, x: np.ndarray, y: np.ndarray, pair: TrainingPair | None = None) -> None:
+    def append(self, x: np.ndarray, y: np.ndarray, pair: TrainingPair | None = None, mask=None) -> None:
         if self._n == len(self._x):  # amortised growth: doubling
             self._x = np.concatenate([self._x, np.empty_like(self._x)])
             self._y = np.concatenate([self._y, np.empty_like(self._y)])
+            self._mask = np.concatenate([self._mask, np.empty_like(self._mask)])
         self._x[self._n], self._y[self._n] = x, y
+        self._mask[self._n] = 1.0 if mask is None else mask
         self._n += 1
         if self._file is not None and pair is not None:
             self._file.write(encode(pair))
             self._file.flush()
 
-    def extend(self, xs: np.ndarray, ys: np.ndarray) -> None:
-        for x, y in zip(xs, ys):
-            self.append(x, y)
 
     @property
     def x(self) -> np.ndarray:
@@ -47,6 +47,10 @@ class PairLog:
     @property
     def y(self) -> np.ndarray:
         return self._y[: self._n]
+
+    @property
+    def mask(self) -> np.ndarray:
+        return self._mask[: self._n]
 
     def replay_file(self) -> list[TrainingPair]:
         """Pairs saved by an earlier run of this learner (it crashed or was restarted); opens for appending."""

@@ -103,5 +103,8 @@ def test_partial_teachers_merge_with_the_student():
     student = ("learner/l", P([1, 2, 3], 0.9))
     d = TeacherFirst().decide([("teacher/pan", pan)], student, None, np.zeros(3))
     assert list(d.y) == [1, 5, 3] and d.train
+    assert list(d.mask) == [0, 1, 0], "only the taught output is to be learned"
     d = TeacherFirst().decide([("teacher/pan", pan), ("teacher/tilt", tilt)], student, None, np.zeros(3))
-    assert list(d.y) == [7, 5, 3]
+    assert list(d.y) == [7, 5, 3] and list(d.mask) == [1, 1, 0]
+    whole = TeacherFirst().decide([("teacher/t", P([1, 1, 1], 1.0))], student, None, np.zeros(3))
+    assert whole.mask is None

@@ -57,13 +57,14 @@ def test_message_checks():
     with pytest.raises(SchemaError, match="counters"):
         decode(Status, encode(Status("r", "n", 1, {"a": float("nan")}, {})), "k")
     with pytest.raises(SchemaError, match="rows"):
-        decode(PairBatch, encode(PairBatch("e", 1, np.zeros((2, 3)), np.zeros((3, 1)))), "k", {"x": 3, "y": 1})
+        decode(PairBatch, encode(PairBatch("e", 1, np.zeros((2, 3)), np.zeros((3, 1)), np.ones((3, 1)))), "k",
+               {"x": 3, "y": 1})
 
 
 def test_pair_batch_rows():
-    raw = encode(PairBatch("e", 4, np.ones((3, 2)), np.zeros((3, 1))))
+    raw = encode(PairBatch("e", 4, np.ones((3, 2)), np.zeros((3, 1)), np.ones((3, 1))))
     msg = decode(PairBatch, raw, "k", {"x": 2, "y": 1})
-    assert msg.x.shape == (3, 2) and msg.y.shape == (3, 1) and msg.first_seq == 4
+    assert msg.x.shape == (3, 2) and msg.y.shape == msg.mask.shape == (3, 1) and msg.first_seq == 4
 
 
 def test_training_pair_round_trip():

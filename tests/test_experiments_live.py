@@ -38,3 +38,23 @@ def test_ballseek_live_student_reaches_the_ball(tmp_path, learner):
     first_teach = np.flatnonzero(data["teaching"])[:25]
     # Figure 5: the error falls while the teacher is active
     assert summary["error_student"] < 0.25 and np.mean(data["error"][first_teach[:5]]) > summary["error_teaching"]
+
+
+def test_mirroring_two_teachers_in_turn_merge_live(tmp_path):
+    """Pan is taught, then tilt, by two partial teachers; the student then mirrors both axes."""
+    run = start_mirroring(tmp_path, endpoint(), learner="per-output", learner_params={"base": "lwpr"},
+                          teachers={"pan": "pan", "tilt": "tilt"})
+    try:
+        run.run_ticks(30)
+        for teacher in ("pan", "tilt"):
+            run.teach(True, teacher)
+            run.run_ticks(int(10 * RATE))
+            run.teach(False, teacher)
+        off = run.tick()
+        run.run_ticks(int(5 * RATE))
+        pan, n = student_error(run, off + 3, axes=("pan",))
+        tilt, _ = student_error(run, off + 3, axes=("tilt",))
+    finally:
+        assert run.close() == 0
+    print(f"two teachers in turn, live: student RMS pan {pan:.4f} rad, tilt {tilt:.4f} rad over {n} ticks")
+    assert n >= 100 and pan < 0.05 and tilt < 0.05

@@ -1,4 +1,5 @@
 """Every registered learner against every conformance check (ids like lwpr:check_...)."""
+import numpy as np
 import pytest
 
 from services.learners import LEARNERS, LearnerInputError, UnknownLearnerError, make_learner
@@ -20,7 +21,7 @@ def test_unknown_learner_lists_known_names():
     with pytest.raises(KeyError) as caught:
         make_learner("gpr", 2, 1)
     assert isinstance(caught.value, UnknownLearnerError)
-    assert "known learners: knn, lwpr, sogp" in str(caught.value)
+    assert "known learners: knn, lwpr, per-output, sogp" in str(caught.value)
 
 
 @pytest.mark.parametrize("name", sorted(LEARNERS))
@@ -65,3 +66,14 @@ def test_any_input_and_output_sizes(name, n_in, n_out):
     prediction = model.predict_many(xs)
     assert prediction.y.shape == (50, n_out) and prediction.confidence.shape == (50,)
     assert np.isfinite(prediction.y).all()
+
+
+def test_per_output_learns_only_the_taught_outputs():
+    model = make_learner("per-output", 2, 2, base="knn")
+    rng = np.random.default_rng(0)
+    for x in rng.uniform(-1, 1, (200, 2)):
+        model.learn_one(x, [x[0], 5.0], mask=[1, 0])  # output 1 untaught: its 5.0 must not be learned
+    for x in rng.uniform(-1, 1, (200, 2)):
+        model.learn_one(x, [9.0, x[1]], mask=[0, 1])  # output 0 untaught now
+    p = model.predict_one([0.3, -0.4])
+    assert abs(p.y[0] - 0.3) < 0.15 and abs(p.y[1] + 0.4) < 0.15, p.y

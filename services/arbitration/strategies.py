@@ -19,6 +19,7 @@ class Decision:
     source: str        # "teacher/<name>", "learner/<id>", "default/<name>" or "hold"
     confidence: float
     train: bool        # whether (x, y) goes to the learners
+    mask: np.ndarray | None = None  # outputs the teachers taught (None: all); only those are to be learned
 
 
 def _best(proposals: list[tuple[str, Proposal]]) -> tuple[str, Proposal]:
@@ -26,18 +27,22 @@ def _best(proposals: list[tuple[str, Proposal]]) -> tuple[str, Proposal]:
     return max(sorted(proposals, key=lambda item: item[0]), key=lambda item: item[1].confidence)
 
 
-def _teach(teachers, learner, fallback) -> tuple[str, Proposal, np.ndarray]:
-    """The teachers' output. Partial teachers (with a mask) set only their outputs; the others keep
-    the student's (or the held) output, so teachers of different axes merge into one behaviour."""
+def _teach(teachers, learner, fallback) -> tuple[str, Proposal, np.ndarray, np.ndarray | None]:
+    """The teachers' output and the outputs they taught. Partial teachers (with a mask) set only
+    their outputs; the others keep the student's (or the held) output for the robot, but are not
+    taught: a student trained on its own guess for an untaught axis would unlearn it, and two
+    teachers of different axes could never merge (docs/results.md)."""
     name, best = _best(teachers)
-    if all(p.mask is None for _, p in teachers) or best.mask is None:
-        return name, best, best.y
+    if best.mask is None:
+        return name, best, best.y, None
     y = np.array(learner[1].y if learner is not None else fallback, dtype=np.float64)
+    taught = np.zeros(len(y), dtype=bool)
     # lower confidence first, so the most confident teacher has the last word on a shared output
     for _, p in sorted(teachers, key=lambda item: (item[1].confidence, item[0])):
         chosen = p.mask.astype(bool) if p.mask is not None else np.ones(len(y), dtype=bool)
         y[chosen] = p.y[chosen]
-    return name, best, y
+        taught |= chosen
+    return name, best, y, None if taught.all() else taught.astype(np.float64)
 
 
 class TeacherFirst:
@@ -48,8 +53,8 @@ class TeacherFirst:
 
     def decide(self, teachers, learner, default, fallback: np.ndarray) -> Decision:
         if teachers:
-            name, p, y = _teach(teachers, learner, fallback)
-            return Decision(y, "teacher", name, p.confidence, True)
+            name, p, y, taught = _teach(teachers, learner, fallback)
+            return Decision(y, "teacher", name, p.confidence, True, taught)
         return self._student(learner, default, fallback)
 
     def _student(self, learner, default, fallback) -> Decision:
@@ -70,9 +75,9 @@ class HighestConfidence(TeacherFirst):
 
     def decide(self, teachers, learner, default, fallback) -> Decision:
         if teachers:
-            name, p, y = _teach(teachers, learner, fallback)
+            name, p, y, taught = _teach(teachers, learner, fallback)
             if learner is None or p.confidence >= learner[1].confidence:
-                return Decision(y, "teacher", name, p.confidence, True)
+                return Decision(y, "teacher", name, p.confidence, True, taught)
         return self._student(learner, default, fallback)
 
 
@@ -91,12 +96,12 @@ class PredictiveLearning(TeacherFirst):
             decision = self._student(learner, default, fallback)
             return Decision(decision.y, "student" if self.acting else decision.mode, decision.source,
                             decision.confidence, False)
-        name, p, y = _teach(teachers, learner, fallback)
+        name, p, y, taught = _teach(teachers, learner, fallback)
         if learner is not None:
             self._errors = (self._errors + [float(np.mean((learner[1].y - y) ** 2))])[-self.window:]
             if len(self._errors) == self.window and np.mean(self._errors) < self.error_threshold:
                 self.acting = True
-        return Decision(y, "teacher", name, p.confidence, True)
+        return Decision(y, "teacher", name, p.confidence, True, taught)
 
 
 STRATEGIES = {"teacher-first": TeacherFirst, "confidence": HighestConfidence, "predictive": PredictiveLearning}

@@ -97,7 +97,8 @@ class Arbitrator:
         rows = [p for p in self.recent if first <= p.seq <= last]
         xs = np.array([p.x for p in rows]).reshape(-1, self.dims["x"])
         ys = np.array([p.y for p in rows]).reshape(-1, self.dims["y"])
-        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys)))
+        masks = np.array([np.ones(self.dims["y"]) if p.mask is None else p.mask for p in rows]).reshape(ys.shape)
+        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys, masks)))
 
     # --- deciding ---------------------------------------------------------------------------
     def decide_ready(self, now):
@@ -116,11 +117,11 @@ class Arbitrator:
             self.counts["commands"] += 1
             self.counts[f"mode_{d.mode}"] += 1
             if d.train or self.train_on == "all":
-                self.publish_pair(entry.tick, entry.x, d.y, d.source)
+                self.publish_pair(entry.tick, entry.x, d.y, d.source, d.mask)
 
-    def publish_pair(self, tick, x, y, source):
+    def publish_pair(self, tick, x, y, source, mask=None):
         self.seq += 1
-        pair = TrainingPair(self.epoch, self.seq, tick, x, np.asarray(y, dtype=np.float64), source)
+        pair = TrainingPair(self.epoch, self.seq, tick, x, np.asarray(y, dtype=np.float64), source, mask)
         self.recent.append(pair)
         self.train_pub.put(encode(pair))
         self.counts["train_pairs"] += 1

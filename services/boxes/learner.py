@@ -28,15 +28,24 @@ from services.params import parse_params
 class LearnerNode:
     def __init__(self, session, keys, name, model, pairlog, log):
         self.session, self.keys, self.name, self.model, self.pairs, self.log = session, keys, name, model, pairlog, log
-        self.dims = {"x": model.n_in, "y": model.n_out}
+        self.dims = {"x": model.n_in, "y": model.n_out, "mask": model.n_out}
         self.epoch, self.seq = "", 0
         self.rejects, self.counts = Rejects(log), collections.Counter()
         self.pub = sensor_publisher(session, keys.proposal("learner", name))
 
     # --- learning ---------------------------------------------------------------------------
-    def incorporate(self, x, y, epoch, seq, pair=None):
-        self.model.learn_one(x, y)
-        self.pairs.append(x, y, pair)
+    def learn(self, x, y, mask) -> None:
+        """A partial teacher's pair trains only the outputs it taught, where the learner can do that."""
+        if mask is not None and not np.all(mask == 1) and getattr(self.model, "accepts_mask", False):
+            self.model.learn_one(x, y, mask=mask)
+        else:
+            if mask is not None and not np.all(mask == 1):
+                self.counts["partial_pairs_learned_whole"] += 1  # see docs/results.md: use per-output
+            self.model.learn_one(x, y)
+
+    def incorporate(self, x, y, epoch, seq, pair=None, mask=None):
+        self.learn(x, y, mask)
+        self.pairs.append(x, y, pair, mask)
         self.epoch, self.seq = epoch, seq
         self.counts["learned"] += 1
 
@@ -49,7 +58,7 @@ class LearnerNode:
             return
         if pair.seq > self.seq + 1:
             self.fill_gap(pair.seq - 1)
-        self.incorporate(pair.x, pair.y, pair.epoch, pair.seq, pair)
+        self.incorporate(pair.x, pair.y, pair.epoch, pair.seq, pair, pair.mask)
 
     def fill_gap(self, last: int):
         first = self.seq + 1
@@ -59,9 +68,9 @@ class LearnerNode:
             self.log.error("training pairs %d..%d of epoch %s are gone; learning goes on without them",
                            first, last, self.epoch)
             return
-        for i, (x, y) in enumerate(zip(batch.x, batch.y)):
-            seq = first + i
-            self.incorporate(x, y, self.epoch, seq, TrainingPair(self.epoch, seq, -1, x, y, "gap-fill"))
+        for i, (x, y, mask) in enumerate(zip(batch.x, batch.y, batch.mask)):
+            seq, mask = first + i, None if np.all(mask == 1) else mask
+            self.incorporate(x, y, self.epoch, seq, TrainingPair(self.epoch, seq, -1, x, y, "gap-fill", mask), mask)
         self.counts["gap_filled"] += len(batch.x)
 
     def query(self, key, cls, parameters="", timeout=5.0):
@@ -77,8 +86,8 @@ class LearnerNode:
     # --- warming ----------------------------------------------------------------------------
     def replay(self, pairs: list[TrainingPair]):
         for p in pairs:
-            self.model.learn_one(p.x, p.y)
-            self.pairs.append(p.x, p.y)
+            self.learn(p.x, p.y, p.mask)
+            self.pairs.append(p.x, p.y, mask=p.mask)
             self.epoch, self.seq = p.epoch, p.seq
         self.counts["replayed"] = len(pairs)
 
@@ -95,12 +104,17 @@ class LearnerNode:
         if snap.learner_class == type(self.model).__name__:
             self.model = type(self.model).restore(snap.blob)
             how = "snapshot"
-        else:
+        elif np.all(history.mask == 1):
             self.model.learn_many(history.x, history.y)
             how = f"training on {len(history.x)} pairs"
+        else:  # partial pairs: each trains only its taught outputs
+            for x, y, mask in zip(history.x, history.y, history.mask):
+                self.learn(x, y, mask)
+            how = f"training on {len(history.x)} pairs (some partial)"
         first = snap.seq - len(history.x) + 1
-        for i, (x, y) in enumerate(zip(history.x, history.y)):
-            self.pairs.append(x, y, TrainingPair(snap.epoch, first + i, -1, x, y, "history"))
+        for i, (x, y, mask) in enumerate(zip(history.x, history.y, history.mask)):
+            mask = None if np.all(mask == 1) else mask
+            self.pairs.append(x, y, TrainingPair(snap.epoch, first + i, -1, x, y, "history", mask), mask)
         self.epoch, self.seq = snap.epoch, snap.seq
         self.counts["warmed"] = len(history.x)
         self.log.info("warmed from %s by %s (up to seq %d of epoch %s)", old, how, snap.seq, snap.epoch)
@@ -124,7 +138,7 @@ class LearnerNode:
         if upto is not None and params.get("epoch") == self.epoch:
             n -= max(0, self.seq - int(upto))  # the rows learned after `upto`
         query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, self.pairs.x[:n],
-                                          self.pairs.y[:n])))
+                                          self.pairs.y[:n], self.pairs.mask[:n])))
 
     def status(self):
         counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs),

@@ -29,7 +29,7 @@ args = ["--distractors", "mirroring", "--seed", "{seed}"]
 {teachers}
 [services.learner]
 box = "learner"
-args = ["--learner", "{learner}", "--seed", "{seed}"]
+args = ["--learner", "{learner}", "--seed", "{seed}"{learner_params}]
 
 [services.arbitrator]
 box = "arbitrator"
@@ -42,13 +42,15 @@ args = ["--teacher", "mirror", "--param", "axes={axes}"]
 
 
 def start_mirroring(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0,
-                    teachers: dict | None = None) -> LiveRun:
+                    teachers: dict | None = None, learner_params: dict | None = None) -> LiveRun:
     """teachers: service name -> axes ('both', 'pan', 'tilt'); default one teacher 'mirror' for both."""
     teachers = teachers or {"mirror": "both"}
     run_dir.mkdir(parents=True, exist_ok=True)
     profile = run_dir / "mirroring.toml"
     blocks = "".join(TEACHER.format(name=n, axes=a) for n, a in teachers.items())
-    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, seed=seed, learner=learner, teachers=blocks))
+    params = "".join(f', "--param", "{k}={v}"' for k, v in (learner_params or {}).items())
+    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, seed=seed, learner=learner, teachers=blocks,
+                                      learner_params=params))
     run = LiveRun(profile, run_dir, endpoint)
     run.wait_ready()
     return run

@@ -13,9 +13,10 @@ from .base import Learner, Prediction, Predictions
 from .errors import LearnerInputError, UnknownLearnerError
 from .knn import KNN
 from .lwpr import LWPR
+from .per_output import PerOutput
 from .sogp import SOGP
 
-LEARNERS: dict[str, type[Learner]] = {"lwpr": LWPR, "sogp": SOGP, "knn": KNN}
+LEARNERS: dict[str, type[Learner]] = {"lwpr": LWPR, "sogp": SOGP, "knn": KNN, "per-output": PerOutput}
 
 
 def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parameters) -> Learner:
@@ -52,6 +53,6 @@ def warm_up() -> float:
 
 
 __all__ = [
-    "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "Prediction", "Predictions",
+    "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction", "Predictions",
     "SOGP", "UnknownLearnerError", "make_learner", "warm_up",
 ]
