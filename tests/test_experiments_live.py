@@ -58,3 +58,21 @@ def test_mirroring_two_teachers_in_turn_merge_live(tmp_path):
         assert run.close() == 0
     print(f"two teachers in turn, live: student RMS pan {pan:.4f} rad, tilt {tilt:.4f} rad over {n} ticks")
     assert n >= 100 and pan < 0.05 and tilt < 0.05
+
+
+def test_orange_ball_approached_untaught_then_ignored_after_correction_live(tmp_path):
+    """Paper V.B's emergent behaviour, with the colour-blind blob slots (docs/results.md)."""
+    from services.demo.ballseek import ball_episodes, correct_orange, start_ballseek, teach_phase
+    from services.experiments.ballseek import BALLSEEK_RATE_HZ as rate
+    from services.experiments.ballseek_protocol import ORANGE_FAR, TEACHING_SCHEDULE
+    run = start_ballseek(tmp_path, endpoint(), layout="slots")
+    try:
+        teach_phase(run, TEACHING_SCHEDULE, 0, rate)
+        before = ball_episodes(run, 3, 20.0, 0, "orange_before", rate, target="orange", far=ORANGE_FAR)
+        correct_orange(run, 20.0, 0, rate)
+        after = ball_episodes(run, 3, 20.0, 0, "orange_after", rate, target="orange", far=ORANGE_FAR)
+    finally:
+        assert run.close() == 0
+    approached = [sum(r is not None for r in rs) for rs in (before, after)]
+    print(f"orange live: approached {approached[0]}/3 before correction, {approached[1]}/3 after")
+    assert approached[0] >= 2 and approached[1] == 0

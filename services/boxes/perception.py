@@ -15,6 +15,7 @@ from bus_schema import Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMess
 from services.boxes.common import fetch_spaces
 from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
                           sensor_publisher, setup_logging)
+from services.experiments.blob_slots import BlobSlots
 from services.perception.blobs import DEFAULT_COLOURS, BlobDetector
 from services.perception.jpeg import decode_rgb
 
@@ -37,16 +38,20 @@ def parse_colours(items: list[str] | None) -> dict | None:
     return colours
 
 
-def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict | None) -> int:
+def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict | None,
+         layout: str = "colours") -> int:
     log = setup_logging("perception", name)
     stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
     detector = BlobDetector(colours)
+    # "slots": colour-blind slots, largest blob first, colour as one more input (services.experiments.blob_slots)
+    slots = BlobSlots(detector) if layout == "slots" else None
+    in_box = slots.box() if slots else detector.box()
     rejects, counts = Rejects(log), collections.Counter()
     with zenoh.open(conf) as session:
         robot_spaces = fetch_spaces(session, robot_keys, stop, log)
         if robot_spaces is None:
             return 0
-        spaces = Spaces(detector.box(), robot_spaces.output, {"perception": "colour blobs", "robot": robot})
+        spaces = Spaces(in_box, robot_spaces.output, {"perception": f"colour blobs ({layout})", "robot": robot})
         spaces_payload = encode(SpacesMessage(spaces.to_dict()))
         pub = sensor_publisher(session, keys.input)
         held = [session.declare_subscriber(robot_keys.camera, inbox.callback("frame")),
@@ -55,7 +60,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
         status = StatusPublisher(session, keys.status("perception", name), "perception", name)
         busy = 0.0
         log.info("blobs for %s -> %d inputs (%s)", ", ".join(detector.colours), spaces.input.dims,
-                 ", ".join(detector.describe()))
+                 ", ".join(spaces.input.names))
         while not stop:
             item, newest = inbox.get(0.1), None
             while item is not None:
@@ -72,6 +77,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
                 started = time.perf_counter()
                 try:
                     x = detector.detect(decode_rgb(newest.jpeg))
+                    x = slots.encode(x) if slots else x
                 except ValueError as err:  # a JPEG that does not decode
                     rejects(robot_keys.camera, err)
                     continue
@@ -91,6 +97,8 @@ def cli(argv=None) -> int:
     parser.add_argument("--robot", default="aibo")
     parser.add_argument("--colour", action="append", metavar="NAME=H,S,V,H,S,V",
                         help=f"HSV range of a colour (repeatable; default {', '.join(DEFAULT_COLOURS)})")
+    parser.add_argument("--layout", choices=("colours", "slots"), default="colours",
+                        help="colours: 4 inputs per colour; slots: blobs largest first, colour an input")
     add_bus_args(parser)
     a = parser.parse_args(argv)
-    return main(config_from_args(a), a.instance, a.name, a.robot, parse_colours(a.colour))
+    return main(config_from_args(a), a.instance, a.name, a.robot, parse_colours(a.colour), a.layout)

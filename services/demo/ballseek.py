@@ -12,7 +12,9 @@ import numpy as np
 
 from services.demo.live import LiveRun
 from services.experiments.ballseek import BALLSEEK_RATE_HZ, NEAR, ball_spot
-from services.experiments.ballseek_protocol import TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE, arena_seed, phase_rng
+from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE,
+                                                   arena_seed, phase_rng)
+from services.experiments.blob_slots import BlobSlots, SlotBallSeekTeacher
 from services.experiments.evaluate import error_over_time, plot_error, teacher_outputs
 from services.experiments.judges import REACH_RADIUS, nose_distance
 from services.experiments.user import ScriptedUser
@@ -32,10 +34,11 @@ args = ["--command", "move", "--input", "camera", "--rate", "0", "--sim-hz", "{r
 
 [services.perception]
 box = "perception"
+args = ["--layout", "{layout}"]
 
 [services.seeker]
 box = "demonstrator"
-args = ["--teacher", "ballseek"]
+args = ["--teacher", "{teacher}"]
 
 [services.learner]
 box = "learner"
@@ -70,15 +73,18 @@ def episode(run: LiveRun, arena: int, balls: dict, seconds: float, rate: float, 
     return reached_at
 
 
-def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0) -> dict:
+def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: str = "colours") -> dict:
     """Teacher run on every input the student saw; error against the student's answer over time."""
     inputs = {m.tick: m.x for m in run.inputs()}
     student = {p.tick: p.y for p in run.learner_proposals()}
     modes = {c.tick: c.mode for c in run.commands()}
     ticks = sorted(t for t in inputs if t in student and t in modes and t >= first_tick)
     x = np.array([inputs[t] for t in ticks])
-    spaces = Spaces(BlobDetector().box(), MOVE_BOX)
-    teacher_y = teacher_outputs(BallSeekTeacher(spaces), x)
+    if layout == "slots":
+        teacher = SlotBallSeekTeacher(Spaces(BlobSlots().box(), MOVE_BOX))
+    else:
+        teacher = BallSeekTeacher(Spaces(BlobDetector().box(), MOVE_BOX))
+    teacher_y = teacher_outputs(teacher, x)
     student_y = np.array([student[t] for t in ticks])
     scale = (np.array(MOVE_BOX.high) - np.array(MOVE_BOX.low)) / 2
     error = error_over_time(teacher_y, student_y, scale=scale)
@@ -92,42 +98,73 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0) -> dict:
             "error_student": float(np.mean(off)) if len(off) else None}
 
 
+def start_ballseek(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0,
+                   rate: float = BALLSEEK_RATE_HZ, layout: str = "colours") -> LiveRun:
+    run_dir.mkdir(parents=True, exist_ok=True)
+    profile = run_dir / "ballseek.toml"
+    teacher = "ballseek-slots" if layout == "slots" else "ballseek"
+    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=rate, seed=seed, learner=learner,
+                                      state=run_dir / "state", layout=layout, teacher=teacher))
+    run = LiveRun(profile, run_dir, endpoint)
+    run.wait_ready()
+    return run
+
+
+def teach_phase(run: LiveRun, schedule, seed: int, rate: float) -> int:
+    """The scripted user teaches on `schedule` (sim seconds) over fresh arenas with only the pink
+    ball, a new one every 15 s; returns how many ticks were taught."""
+    user, rng = ScriptedUser(schedule=schedule, seed=seed), phase_rng(seed, "teach")
+    t0, teaching, taught = run.tick(), False, 0
+    end = schedule[-1][1] if schedule else 0.0
+    while (run.tick() - t0) / rate < end:
+        run.reset_arena(arena_seed(rng), {"pink": ball_spot(rng), "orange": None})
+        episode_start = run.tick()
+        while (run.tick() - episode_start) / rate < TEACHING_EPISODE_SECONDS and (run.tick() - t0) / rate < end:
+            want = user.teaching((run.tick() - t0) / rate)
+            if want != teaching:
+                run.teach(want)
+                teaching = want
+            run.run_ticks(1)
+            taught += teaching
+    run.teach(False)
+    return taught
+
+
+def ball_episodes(run: LiveRun, count: int, seconds: float, seed: int, phase: str, rate: float,
+                  target: str = "pink", far: float = 1.3) -> list:
+    """`count` student-only episodes with only the `target` ball: time to reach it, or None."""
+    rng, other = phase_rng(seed, phase), "orange" if target == "pink" else "pink"
+    return [episode(run, arena_seed(rng), {target: ball_spot(rng, NEAR, far), other: None}, seconds, rate,
+                    target=target, stop_when_reached=True) for _ in range(count)]
+
+
+def correct_orange(run: LiveRun, seconds: float, seed: int, rate: float) -> None:
+    """A short correction: the teacher (which ignores orange) drives while the person keeps putting
+    the orange ball down in front of the robot, every 3 s."""
+    rng = phase_rng(seed, "correct")
+    run.teach(True)
+    for _ in range(int(round(seconds / 3.0))):
+        run.reset_arena(arena_seed(rng), {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4)),
+                                           "pink": None})
+        run.run_ticks(int(3.0 * rate))
+    run.teach(False)
+
+
 def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0, episodes: int = 6,
                       episode_seconds: float = 30.0, schedule=TEACHING_SCHEDULE, rate: float = BALLSEEK_RATE_HZ,
                       log=print) -> dict:
-    profile = run_dir / "ballseek.toml"
-    run_dir.mkdir(parents=True, exist_ok=True)
-    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=rate, seed=seed, learner=learner,
-                                      state=run_dir / "state"))
     started = time.monotonic()
-    run = LiveRun(profile, run_dir, endpoint)
+    run = start_ballseek(run_dir, endpoint, learner, seed, rate)
     try:
-        run.wait_ready()
         log(f"{time.monotonic() - started:5.1f} s  all services ready; teaching (schedule {schedule})")
-        user, rng = ScriptedUser(schedule=schedule, seed=seed), phase_rng(seed, "teach")
-        t0, teaching, taught_ticks = run.tick(), False, 0
-        end = schedule[-1][1] if schedule else 0.0
-        while (run.tick() - t0) / rate < end:
-            arena, balls = arena_seed(rng), {"pink": ball_spot(rng), "orange": None}
-            run.reset_arena(arena, balls)
-            episode_start = run.tick()
-            while (run.tick() - episode_start) / rate < TEACHING_EPISODE_SECONDS and (run.tick() - t0) / rate < end:
-                want = user.teaching((run.tick() - t0) / rate)
-                if want != teaching:
-                    run.teach(want)
-                    teaching = want
-                run.run_ticks(1)
-                taught_ticks += teaching
-        run.teach(False)
+        t0 = run.tick()
+        taught_ticks = teach_phase(run, schedule, seed, rate)
         log(f"{time.monotonic() - started:5.1f} s  taught {taught_ticks / rate:.0f} s; the student alone now")
-        rng = phase_rng(seed, "episodes")
         reach = []
-        for i in range(episodes):
-            spot = ball_spot(rng, NEAR, 1.3)
-            reach.append(episode(run, arena_seed(rng), {"pink": spot, "orange": None}, episode_seconds, rate,
-                                 stop_when_reached=True))
+        for i, reached in enumerate(ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate)):
+            reach.append(reached)
             log(f"{time.monotonic() - started:5.1f} s  episode {i + 1}: "
-                + (f"reached the pink ball in {reach[-1]:.1f} s" if reach[-1] is not None else "did not reach it"))
+                + (f"reached the pink ball in {reached:.1f} s" if reached is not None else "did not reach it"))
         errors = figure5(run, rate, run_dir, first_tick=t0)
         summary = {"learner": learner, "seed": seed, "taught_s": taught_ticks / rate,
                    "episodes": episodes, "successes": sum(r is not None for r in reach),
