@@ -13,7 +13,6 @@ import numpy as np
 
 from bus_schema import Proposal
 from services.arbitration.strategies import Decision, TeacherFirst
-from services.experiments.masked_training import taught_outputs
 
 
 def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.ndarray | None = None,
@@ -33,11 +32,11 @@ def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.nda
         fallback = np.zeros(learner.n_out)
     decision = strategy.decide(proposals, student, None, fallback)
     if decision.train:
-        mask = taught_outputs(proposals) if getattr(learner, "accepts_mask", False) else None
-        if mask is None:
+        # as the learner service does: a partial teacher's pair trains only its outputs when it can
+        if decision.mask is None or not getattr(learner, "accepts_mask", False):
             learner.learn_one(x, decision.y)
-        else:  # the proposal of services/experiments/masked_training.py
-            learner.learn_one(x, decision.y, mask=mask)
+        else:
+            learner.learn_one(x, decision.y, mask=decision.mask)
     return decision, predicted.y, float(predicted.confidence)
 
 

@@ -6,7 +6,9 @@ caller paces it. The same seed and the same calls give the same run, bit for bit
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import warnings
 
 import numpy as np
@@ -18,6 +20,18 @@ from services.platforms.aibo.camera import NoseCamera
 from services.platforms.aibo.gait import MOVE_LIMITS, TrotGait, neutral_pose
 from services.platforms.aibo.joints import JOINT_LIMITS, JOINT_NAMES, LEG_SLICE
 from services.platforms.aibo.model import URDF_PATH
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
 
 EAR_COLOURS = {"teacher": (1.0, 0.0, 0.0, 1.0), "student": (0.0, 0.0, 1.0, 1.0), "unsure": (0.0, 1.0, 0.0, 1.0)}
 EAR_IDLE = (0.5, 0.5, 0.5, 1.0)  # before any mode is known
@@ -35,7 +49,8 @@ class AiboSim:
         self.seed, self.physics_hz = seed, physics_hz
         self.camera = camera or NoseCamera()
         self.gait = gait or TrotGait()
-        self._client = BulletClient(connection_mode=self._connection_mode(gui))
+        with _stdout_to_stderr():  # pybullet prints "argv[0]=" from C: stdout is never ours to fill
+            self._client = BulletClient(connection_mode=self._connection_mode(gui))
         self._closed = False
         self.reset(seed)
 
