@@ -131,11 +131,16 @@ def teach_phase(run: LiveRun, schedule, seed: int, rate: float) -> int:
 
 
 def ball_episodes(run: LiveRun, count: int, seconds: float, seed: int, phase: str, rate: float,
-                  target: str = "pink", far: float = 1.3) -> list:
-    """`count` student-only episodes with only the `target` ball: time to reach it, or None."""
+                  target: str = "pink", far: float = 1.3, on_episode=None) -> list:
+    """`count` student-only episodes with only the `target` ball: time to reach it, or None each."""
     rng, other = phase_rng(seed, phase), "orange" if target == "pink" else "pink"
-    return [episode(run, arena_seed(rng), {target: ball_spot(rng, NEAR, far), other: None}, seconds, rate,
-                    target=target, stop_when_reached=True) for _ in range(count)]
+    results = []
+    for i in range(count):
+        results.append(episode(run, arena_seed(rng), {target: ball_spot(rng, NEAR, far), other: None}, seconds,
+                               rate, target=target, stop_when_reached=True))
+        if on_episode:
+            on_episode(i, results[-1])
+    return results
 
 
 def correct_orange(run: LiveRun, seconds: float, seed: int, rate: float) -> None:
@@ -160,11 +165,12 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed:
         t0 = run.tick()
         taught_ticks = teach_phase(run, schedule, seed, rate)
         log(f"{time.monotonic() - started:5.1f} s  taught {taught_ticks / rate:.0f} s; the student alone now")
-        reach = []
-        for i, reached in enumerate(ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate)):
-            reach.append(reached)
+
+        def report(i, reached):
             log(f"{time.monotonic() - started:5.1f} s  episode {i + 1}: "
                 + (f"reached the pink ball in {reached:.1f} s" if reached is not None else "did not reach it"))
+
+        reach = ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate, on_episode=report)
         errors = figure5(run, rate, run_dir, first_tick=t0)
         summary = {"learner": learner, "seed": seed, "taught_s": taught_ticks / rate,
                    "episodes": episodes, "successes": sum(r is not None for r in reach),
