@@ -127,8 +127,8 @@ class Arbitrator:
         self.counts["train_pairs"] += 1
 
     def status(self) -> tuple[dict, dict]:
-        counters = dict(self.counts, rejected=self.rejects.total, late_proposals=self.table.late, pending=len(self.table))
-        state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq,
+        counters = dict(self.counts, rejected=self.rejects.total, late_proposals=self.table.late)
+        state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq, "pending": len(self.table),
                  "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts)}
         return counters, state
 

@@ -141,9 +141,8 @@ class LearnerNode:
                                           self.pairs.y[:n], self.pairs.mask[:n])))
 
     def status(self):
-        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs),
-                        size=int(self.model.size))
-        return counters, {"learner": type(self.model).__name__, "epoch": self.epoch}
+        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs))
+        return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size)}
 
 
 def compile_kernels(model) -> None:
