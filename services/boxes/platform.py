@@ -23,6 +23,7 @@ from services.params import parse_params
 from services.platforms import PLATFORMS, make_platform
 
 SUBSCRIPTION_SETTLE_S = 0.3
+ANSWER_WINDOW = 1000  # ticks: a command later than this is counted as never having come
 
 
 class PlatformLoop:
@@ -43,20 +44,36 @@ class PlatformLoop:
         self.applied_tick = -1
         self.latencies: list[float] = [] if latency_log else None
         self.recent_latency = collections.deque(maxlen=2000)
-        self.answered: set[int] = set()
+        self.answered: set[int] = set()       # ticks still in the window that got a command
+        self.n_answered, self.unanswered = 0, []  # ticks that left the window (first 1000 misses kept)
+        self.n_unanswered = 0
         self.mode = ""
 
     def publish_input(self):
         self.tick += 1
         self.input_pub.put(encode(Input(self.tick, time.time(), self.platform.observe())))
         self.counts["inputs"] += 1
+        self._settle(self.tick - ANSWER_WINDOW)
+
+    def _settle(self, tick: int) -> None:
+        """A tick leaves the window: answered or not, for good (memory stays bounded on long runs)."""
+        if tick < 1:
+            return
+        if tick in self.answered:
+            self.answered.discard(tick)
+            self.n_answered += 1
+        else:
+            self.n_unanswered += 1
+            if len(self.unanswered) < 1000:
+                self.unanswered.append(tick)
 
     def on_command(self, key, raw):
         msg = decode_or_reject(lambda: decode(Command, raw, key, {"y": self.dims}), self.rejects, key)
         if msg is None:
             return
         self.counts["commands"] += 1
-        self.answered.add(msg.tick)
+        if self.tick - ANSWER_WINDOW < msg.tick <= self.tick:
+            self.answered.add(msg.tick)
         latency = time.time() - msg.stamp
         self.recent_latency.append(latency)
         if self.latencies is not None:
@@ -84,11 +101,12 @@ class PlatformLoop:
             self.counts["held"] += 1
 
     def summary(self) -> dict:
-        answered = len([t for t in self.answered if t <= self.tick])
-        missing = sorted(set(range(1, self.tick + 1)) - self.answered)
+        window = range(max(1, self.tick - ANSWER_WINDOW + 1), self.tick + 1)
+        missing = self.unanswered + [t for t in window if t not in self.answered]
+        answered = self.n_answered + len(self.answered)
         return {"ticks": self.tick, "commands": self.counts["commands"], "answered": answered,
-                "unanswered": self.tick - answered, "first_unanswered": missing[:1000], "held": self.counts["held"],
-                "rejected": self.rejects.total}
+                "unanswered": self.n_unanswered + len(window) - len(self.answered),
+                "first_unanswered": missing[:1000], "held": self.counts["held"], "rejected": self.rejects.total}
 
     def status(self):
         lat = np.array(self.recent_latency) * 1e3 if self.recent_latency else np.zeros(1)
