@@ -5,10 +5,10 @@ import pytest
 from bus_schema.spaces import Spaces
 from services.experiments.ballseek import ball_spot
 from services.experiments.ballseek_protocol import schedule_end
-from services.experiments.blob_slots import BlobSlots, SlotBallSeekTeacher
 from services.perception.blobs import BlobDetector
+from services.perception.slots import BlobSlots
 from services.platforms.aibo.platform import MOVE_BOX
-from services.teachers.ballseek import BallSeekTeacher
+from services.teachers.ballseek import BallSeekTeacher, SlotBallSeekTeacher
 
 PINK, ORANGE = [1.0, 0.3, 0.1, 0.01], [1.0, -0.5, 0.2, 0.04]
 NONE = [0.0] * 4

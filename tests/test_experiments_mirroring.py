@@ -5,16 +5,16 @@ import pytest
 from bus_schema.spaces import Spaces
 from services.experiments import mirroring
 from services.experiments.loop import tick
-from services.experiments.mirror_teacher import RangeMirrorTeacher
 from services.learners import make_learner
 from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT, JOINT_LIMITS, TAIL_PAN, TAIL_TILT
 from services.platforms.aibo.platform import JOINTS_BOX
+from services.teachers.functions import MirrorTeacher
 
 SPACES = Spaces(JOINTS_BOX, JOINTS_BOX)
 
 
-def test_range_mirror_teacher_spans_the_head_tilt_range_and_copies_pan():
-    teacher = RangeMirrorTeacher(SPACES)
+def test_mirror_teacher_spans_the_head_tilt_range_and_copies_pan():
+    teacher = MirrorTeacher(SPACES)
     x = np.zeros(18)
     x[TAIL_TILT], x[TAIL_PAN] = JOINT_LIMITS[TAIL_TILT, 0], 0.3
     raised, _ = teacher(x)
@@ -22,7 +22,7 @@ def test_range_mirror_teacher_spans_the_head_tilt_range_and_copies_pan():
     lowered, _ = teacher(x)
     assert raised[HEAD_TILT] == JOINT_LIMITS[HEAD_TILT, 1] and lowered[HEAD_TILT] == JOINT_LIMITS[HEAD_TILT, 0]
     assert raised[HEAD_PAN] == 0.3
-    assert RangeMirrorTeacher(SPACES, axes="tilt").mask[HEAD_TILT] == 1 and RangeMirrorTeacher(SPACES, axes="tilt").mask.sum() == 1
+    assert MirrorTeacher(SPACES, axes="tilt").mask[HEAD_TILT] == 1 and MirrorTeacher(SPACES, axes="tilt").mask.sum() == 1
 
 
 def test_a_partial_teacher_sets_its_axis_and_the_student_the_rest():
@@ -30,7 +30,7 @@ def test_a_partial_teacher_sets_its_axis_and_the_student_the_rest():
     learner.learn_one(np.zeros(18), np.full(18, 0.1))
     x = np.zeros(18)
     x[TAIL_PAN] = 0.4
-    decision, student_y, _ = tick(x, [("teacher/pan", RangeMirrorTeacher(SPACES, axes="pan"))], learner)
+    decision, student_y, _ = tick(x, [("teacher/pan", MirrorTeacher(SPACES, axes="pan"))], learner)
     assert decision.mode == "teacher" and decision.train
     assert decision.y[HEAD_PAN] == 0.4 and decision.y[HEAD_TILT] == student_y[HEAD_TILT]
 
@@ -45,16 +45,14 @@ def test_student_mirrors_a_held_out_tail_after_a_few_seconds_of_teaching():
     assert arrays["teaching"][:180].all() and not arrays["teaching"][-30:].any()  # 6 s taught, 1 s alone at 30 Hz
 
 
-def test_masked_student_trains_only_the_outputs_the_teacher_speaks_for():
-    from services.experiments.masked_training import PerOutputStudent
-
-    student = PerOutputStudent("knn", 18, 18)
+def test_per_output_student_trains_only_the_outputs_the_teacher_speaks_for():
+    student = make_learner("per-output", 18, 18, base="knn")
     x = np.zeros(18)
     x[TAIL_PAN] = 0.4
-    decision, _, _ = tick(x, [("teacher/pan", RangeMirrorTeacher(SPACES, axes="pan"))], student)
+    decision, _, _ = tick(x, [("teacher/pan", MirrorTeacher(SPACES, axes="pan"))], student)
     after = student.predict_one(x).y
     assert decision.train and after[HEAD_PAN] == pytest.approx(0.4)
-    assert student._learners[HEAD_TILT].n_learned == 0 and student._learners[HEAD_PAN].n_learned == 1
+    assert student._parts[HEAD_TILT].n_learned == 0 and student._parts[HEAD_PAN].n_learned == 1
 
 
 def test_two_partial_teachers_in_turn_merge_when_only_taught_outputs_train():

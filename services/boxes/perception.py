@@ -15,9 +15,9 @@ from bus_schema import Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMess
 from services.boxes.common import fetch_spaces
 from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
                           sensor_publisher, setup_logging)
-from services.experiments.blob_slots import BlobSlots
 from services.perception.blobs import DEFAULT_COLOURS, BlobDetector
 from services.perception.jpeg import decode_rgb
+from services.perception.slots import BlobSlots
 
 
 def parse_colours(items: list[str] | None) -> dict | None:
@@ -43,7 +43,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
     log = setup_logging("perception", name)
     stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
     detector = BlobDetector(colours)
-    # "slots": colour-blind slots, largest blob first, colour as one more input (services.experiments.blob_slots)
+    # "slots": colour-blind slots, largest blob first, colour as one more input (services.perception.slots)
     slots = BlobSlots(detector) if layout == "slots" else None
     in_box = slots.box() if slots else detector.box()
     rejects, counts = Rejects(log), collections.Counter()

@@ -14,13 +14,13 @@ from services.demo.live import LiveRun
 from services.experiments.ballseek import BALLSEEK_RATE_HZ, NEAR, ball_spot
 from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE,
                                                    arena_seed, phase_rng)
-from services.experiments.blob_slots import BlobSlots, SlotBallSeekTeacher
 from services.experiments.evaluate import error_over_time, plot_error, teacher_outputs
 from services.experiments.judges import REACH_RADIUS, nose_distance
 from services.experiments.user import ScriptedUser
 from services.perception.blobs import BlobDetector
+from services.perception.slots import BlobSlots
 from services.platforms.aibo.platform import MOVE_BOX
-from services.teachers.ballseek import BallSeekTeacher
+from services.teachers.ballseek import BallSeekTeacher, SlotBallSeekTeacher
 from bus_schema.spaces import Spaces
 
 PROFILE = """

@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bus_schema.spaces import Spaces
-from services.experiments.blob_slots import BlobSlots, SlotBallSeekTeacher
 from services.experiments.evaluate import error_over_time, teacher_outputs
 from services.experiments.judges import REACH_RADIUS, nose_to_ball
 from services.experiments.loop import Trace, tick
 from services.perception.blobs import BlobDetector
+from services.perception.slots import BlobSlots
 from services.platforms.aibo.platform import AiboPlatform
-from services.teachers.ballseek import BallSeekTeacher
+from services.teachers.ballseek import BallSeekTeacher, SlotBallSeekTeacher
 
 BALLSEEK_RATE_HZ = 5.0
 INPUT_LAYOUTS = ("colours", "slots")
@@ -48,7 +48,7 @@ class BallWorld:
     detector: BlobDetector = field(default_factory=BlobDetector)
     clock: float = 0.0  # simulated seconds over all episodes, for one continuous trace
     rate_hz: float = BALLSEEK_RATE_HZ
-    inputs: str = "colours"  # the detector's layout, or "slots" (blob_slots.py: colour-blind slots)
+    inputs: str = "colours"  # the detector's layout, or "slots" (services/perception/slots.py: colour-blind slots)
 
     def __post_init__(self):
         if self.inputs not in INPUT_LAYOUTS:

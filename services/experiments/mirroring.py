@@ -14,13 +14,12 @@ import numpy as np
 
 from services.experiments.evaluate import error_over_time, teacher_outputs
 from services.experiments.loop import Trace, tick
-from services.experiments.masked_training import PerOutputStudent
 from services.experiments.user import ScriptedUser
 from services.learners import make_learner
 from services.platforms.aibo.handler import MIRRORING_DISTRACTORS, Handler
 from services.platforms.aibo.joints import JOINT_INDEX
 from services.platforms.aibo.platform import AiboPlatform
-from services.experiments.mirror_teacher import RangeMirrorTeacher as MirrorTeacher
+from services.teachers.functions import MirrorTeacher
 
 MIRROR_RATE_HZ = 30.0
 HEAD_AXES = (JOINT_INDEX["head_tilt"], JOINT_INDEX["head_pan"])
@@ -61,11 +60,14 @@ class MirrorRun:
 
 def new_run(seed: int, learner_name: str = "lwpr", handler_seed: int | None = None, masked: bool = False,
             **hyper_parameters) -> MirrorRun:
-    """masked=True: a PerOutputStudent that partial teachers train only on their own outputs."""
+    """masked=True: the per-output learner over `learner_name`, as deploy/mirroring.toml wires it, so
+    that a partial teacher's pairs train only its own outputs (False: the whole vector trains)."""
     platform = AiboPlatform(seed=seed, command="joints", camera=False)
     platform.reset()
-    build = PerOutputStudent if masked else make_learner
-    learner = build(learner_name, 18, 18, seed=seed, **hyper_parameters)
+    if masked:
+        learner = make_learner("per-output", 18, 18, seed=seed, base=learner_name, params=hyper_parameters)
+    else:
+        learner = make_learner(learner_name, 18, 18, seed=seed, **hyper_parameters)
     handler = Handler(seed=seed if handler_seed is None else handler_seed, distractors=MIRRORING_DISTRACTORS)
     return MirrorRun(seed, learner, platform, handler)
 
@@ -137,7 +139,7 @@ def two_teachers(seed: int, learner_name: str = "lwpr", seconds_each: float = 10
                  alone_seconds: float = 10.0, masked: bool = False, **hyper_parameters) -> MirrorResult:
     """Paper V.A with two partial teachers in turn: pan for `seconds_each`, then tilt; the student
     must then mirror both axes. curve: held-out error after the pan teacher and after both.
-    masked=True measures the proposal of masked_training.py."""
+    masked=True is the system's wiring (per-output learner); False trains the whole output vector."""
     run = new_run(seed, learner_name, masked=masked, **hyper_parameters)
     spaces = run.platform.spaces
     checker = AiboPlatform(seed=seed, command="joints", camera=False)

@@ -13,7 +13,7 @@ TEACHERS: dict[str, str] = {
     "mirror": "services.teachers.functions:MirrorTeacher",
     "hold": "services.teachers.functions:HoldTeacher",
     "ballseek": "services.teachers.ballseek:BallSeekTeacher",
-    "ballseek-slots": "services.experiments.blob_slots:SlotBallSeekTeacher",
+    "ballseek-slots": "services.teachers.ballseek:SlotBallSeekTeacher",
 }
 
 

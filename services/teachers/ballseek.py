@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from bus_schema.spaces import Spaces
+from services.perception.slots import BlobSlots
 
 # the detector's default layout, used when the input space carries no names
 DEFAULT_NAMES = ("pink_seen", "pink_x", "pink_y", "pink_area", "orange_seen", "orange_x", "orange_y", "orange_area")
@@ -48,3 +49,15 @@ class BallSeekTeacher:
             walk = np.clip((1.0 - abs(offset)) / (1.0 - self.centred), 0.0, 1.0)
             command = np.array([self.forward_speed * walk, -self.turn_gain * offset])
         return self.spaces.output.clip(command), 1.0
+
+
+class SlotBallSeekTeacher:
+    """BallSeekTeacher reading the colour-blind slot layout (decoded back to per-colour blobs)."""
+
+    def __init__(self, spaces: Spaces, slots: BlobSlots | None = None, **params):
+        self.slots = slots or BlobSlots()
+        self.spaces = spaces
+        self._teacher = BallSeekTeacher(Spaces(self.slots.detector.box(), spaces.output), **params)
+
+    def __call__(self, x: np.ndarray):
+        return self._teacher(self.slots.decode(x))

@@ -1,4 +1,4 @@
-"""A colour-blind input for ball seeking: the blobs in view in slots, largest first, each as
+"""A colour-blind input layout for ball seeking: the blobs in view in slots, largest first, each as
 (seen, x, y, area, orange), instead of the detector's fixed place per colour.
 
 Why: with the detector's layout a pink ball and an orange ball are seen on different inputs. A
@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bus_schema.spaces import Box, Spaces
+from bus_schema.spaces import Box
 from services.perception.blobs import BlobDetector
-from services.teachers.ballseek import BallSeekTeacher
 
 SLOT_FIELDS = ("seen", "x", "y", "area", "orange")
 
@@ -51,15 +50,3 @@ class BlobSlots:
             if slot[0] > 0.5:
                 per_colour[1 if slot[4] > 0.5 else 0] = slot[:4]
         return per_colour.ravel()
-
-
-class SlotBallSeekTeacher:
-    """The same BallSeekTeacher, reading the slot layout (decoded back to per-colour blobs)."""
-
-    def __init__(self, spaces: Spaces, slots: BlobSlots | None = None, **params):
-        self.slots = slots or BlobSlots()
-        self.spaces = spaces
-        self._teacher = BallSeekTeacher(Spaces(self.slots.detector.box(), spaces.output), **params)
-
-    def __call__(self, x: np.ndarray):
-        return self._teacher(self.slots.decode(x))
