@@ -1,4 +1,5 @@
-"""`dogged`: run a box, bring a profile up or down, list, read logs, swap a learner, switch teachers."""
+"""`dogged`: run a box, bring a profile up or down, list, read logs, swap a learner, switch teachers,
+reset the robot's arena."""
 from __future__ import annotations
 
 import argparse
@@ -48,6 +49,11 @@ def main(argv: list[str] | None = None) -> int:
     teach.add_argument("switch", choices=["on", "off"])
     teach.add_argument("--teacher", default="", help="teacher name (default: every teacher)")
     teach.add_argument("--instance", default="main")
+    arena = sub.add_parser("arena", help="rebuild the robot's arena and put balls down: dogged arena --ball pink=0.8,0.2")
+    arena.add_argument("--seed", type=int, default=0, help="arena seed: clutter and where the robot starts (default 0)")
+    arena.add_argument("--ball", action="append", metavar="NAME=X,Y|NAME=off",
+                       help="put a ball at X,Y metres (the robot starts at 0,0 facing +x), or take it away (repeatable)")
+    arena.add_argument("--robot", default="aibo")
     args = parser.parse_args(argv)
     if args.verb == "up":
         from services.supervisor.commands import up

@@ -6,7 +6,7 @@ import numpy as np
 from bus_schema import (Applied, ArenaReset, Command, Frame, Handle, RobotState, SpacesMessage, decode, encode)
 from services.perception.jpeg import decode_rgb
 from services.platforms.aibo.sim import EAR_COLOURS
-from tests.harness import Probe, dogged, stop
+from tests.harness import Probe, dogged, dogged_ok, stop
 
 
 def latest(bucket, cls, dims=None):
@@ -58,12 +58,18 @@ def test_aibo_service_on_the_bus(router, tmp_path):
         probe.put("robot/aibo/arena", encode(ArenaReset(3, {"pink": [0.6, 0.0], "orange": None})))
         probe.wait_for(lambda: probe.counter("aibo/aibo", "resets") == 1, 10, "the reset")
         probe.wait_for(lambda: abs(latest(states, RobotState).balls["pink"][0] - 0.6) < 0.05, 10, "pink placed")
+        # the same from the command line, confirmed from the robot's state; a bad ball is refused by name
+        done = dogged_ok("arena", "--seed", "4", "--ball", "pink=0.7,0.2", "--ball", "orange=off", endpoint=router)
+        assert done.returncode == 0 and "pink [0.7, 0.2], orange off" in done.stdout, done.stderr
+        assert np.allclose(latest(states, RobotState).balls["pink"][:2], [0.7, 0.2], atol=0.05)
+        refused = dogged_ok("arena", "--ball", "blue=0.5,0", endpoint=router, timeout=30)
+        assert refused.returncode == 1 and "did not confirm the arena reset" in refused.stderr
 
         # watchdog: no fresh command -> the robot holds still
         held = probe.counter("aibo/aibo", "held")
         time.sleep(2.5)
         assert probe.counter("aibo/aibo", "held") > held + 20
-        assert probe.counter("aibo/aibo", "rejected") == 0
+        assert probe.counter("aibo/aibo", "rejected") == 1  # the unknown ball, and nothing else
         token.undeclare()
     finally:
         probe.close()

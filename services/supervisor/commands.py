@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import sys
 import time
 
+import numpy as np
 import zenoh
 
-from bus_schema import ControlReply, InstanceKeys, SchemaError, TeachSwitch, decode, encode, supervisor_key
+from bus_schema import (ArenaReset, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError, TeachSwitch,
+                        decode, encode, supervisor_key)
 from services.bus import lossless_publisher, wait_matching, zenoh_config
 from services.supervisor.profile import ProfileError, load_profile
 
@@ -126,3 +129,56 @@ def teach(args) -> int:
             time.sleep(0.1)
     print(f"{who} did not confirm teaching {'on' if on else 'off'}", file=sys.stderr)
     return 1
+
+
+def parse_balls(items: list[str] | None) -> dict:
+    """['pink=0.8,0.2', 'orange=off'] -> {'pink': [0.8, 0.2], 'orange': None}."""
+    balls = {}
+    for item in items or []:
+        name, _, where = item.partition("=")
+        try:
+            balls[name] = None if where == "off" else [float(v) for v in where.split(",")]
+        except ValueError:
+            balls[name] = []
+        if not name or (balls[name] is not None and (len(balls[name]) != 2 or not all(map(math.isfinite, balls[name])))):
+            raise ValueError(f"--ball {item!r}: expected NAME=X,Y (metres, the robot starts at 0,0 facing +x) or NAME=off")
+    return balls
+
+
+def arena(args) -> int:
+    """Rebuild the robot's arena from a seed and put balls down (or away); confirmed from the
+    robot's own state stream, so a request the robot rejected does not pass silently."""
+    try:
+        balls = parse_balls(args.ball)
+    except ValueError as err:
+        print(f"dogged arena: {err}", file=sys.stderr)
+        return 2
+    keys = RobotKeys(args.robot)
+    states = []
+    with _session(args) as session:
+        pub = lossless_publisher(session, keys.arena)
+        if not wait_matching(pub, 5.0):
+            print(f"no robot listens on {keys.arena}", file=sys.stderr)
+            return 1
+        held = session.declare_subscriber(keys.state, lambda sample: states.append(sample.payload.to_bytes()))
+        pub.put(encode(ArenaReset(args.seed, balls)))
+        end = time.monotonic() + 10
+        while time.monotonic() < end:
+            if states and _balls_are_where_asked(decode(RobotState, states[-1], keys.state).balls, balls):
+                print(f"arena {args.seed}: " + (", ".join(f"{n} {'off' if xy is None else xy}" for n, xy in balls.items())
+                                                 or "balls as seeded"))
+                return 0
+            time.sleep(0.1)
+        del held
+    print(f"the robot did not confirm the arena reset; see `dogged logs {args.robot}`", file=sys.stderr)
+    return 1
+
+
+def _balls_are_where_asked(now: dict, asked: dict) -> bool:
+    for name, xy in asked.items():
+        if name not in now:
+            return False
+        distance = float(np.hypot(*(np.asarray(now[name][:2]) - (xy or [0.0, 0.0]))))
+        if (xy is None and distance < 30.0) or (xy is not None and distance > 0.05):  # hidden balls are parked 40+ m out
+            return False
+    return True
