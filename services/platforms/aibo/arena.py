@@ -9,14 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-HALF_SIZE = 1.5  # metres from the centre to each wall
+from services.platforms.aibo.arena_layout import BALL_RADIUS, HALF_SIZE, arena_layout
+
 WALL_HEIGHT, WALL_THICKNESS = 0.25, 0.04
-BALL_RADIUS, BALL_MASS = 0.04, 0.05
+BALL_MASS = 0.05
 BALL_COLOURS = {"pink": (1.0, 0.41, 0.71, 1.0), "orange": (1.0, 0.5, 0.0, 1.0)}
 FLOOR_COLOUR, WALL_COLOUR = (0.72, 0.70, 0.65, 1.0), (0.80, 0.82, 0.86, 1.0)
-CLUTTER_COLOURS = ((0.2, 0.3, 0.75, 1), (0.2, 0.55, 0.3, 1), (0.35, 0.35, 0.38, 1), (0.1, 0.45, 0.5, 1), (0.9, 0.9, 0.9, 1))
-CLUTTER_COUNT = 7
-KEEP_CLEAR = 0.5  # no clutter or ball this close to where the robot starts (the origin)
 HIDDEN_AT = (40.0, 40.0)  # far outside the camera's range, on the same infinite floor
 
 
@@ -25,14 +23,11 @@ class Arena:
 
     def __init__(self, client, seed: int):
         self._client = client
-        self.rng = np.random.default_rng(seed)
-        self._occupied: list[tuple[np.ndarray, float]] = []  # (centre, radius) of what stands on the floor
+        self.layout = arena_layout(seed)
         self._build_floor_and_walls()
-        self.clutter = [self._place_clutter(i) for i in range(CLUTTER_COUNT)]
+        self.clutter = [self._place_clutter(box) for box in self.layout.clutter]
         self.balls = {name: self._make_ball(rgba) for name, rgba in BALL_COLOURS.items()}
-        for name in self.balls:
-            spot = self._free_spot(margin=0.1)
-            self._occupied.append((np.array(spot), BALL_RADIUS))
+        for name, spot in self.layout.balls.items():
             self.place_ball(name, spot)
 
     def _static_box(self, half_extents, position, rgba, collide=True) -> int:
@@ -54,24 +49,9 @@ class Arena:
             self._static_box([WALL_THICKNESS / 2, reach, WALL_HEIGHT / 2], [sign * reach, 0, WALL_HEIGHT / 2], WALL_COLOUR)
             self._static_box([reach, WALL_THICKNESS / 2, WALL_HEIGHT / 2], [0, sign * reach, WALL_HEIGHT / 2], WALL_COLOUR)
 
-    def _free_spot(self, margin: float) -> tuple[float, float]:
-        """A random floor point away from the robot's start, the walls and the clutter."""
-        for _ in range(1000):
-            xy = self.rng.uniform(-HALF_SIZE + 0.2, HALF_SIZE - 0.2, size=2)
-            if np.hypot(*xy) < KEEP_CLEAR + margin:
-                continue
-            if all(np.hypot(*(xy - spot)) > size + margin for spot, size in self._occupied):
-                return float(xy[0]), float(xy[1])
-        raise RuntimeError("arena too crowded to place another object; lower CLUTTER_COUNT")
-
-    def _place_clutter(self, i: int) -> int:
-        half = self.rng.uniform([0.04, 0.04, 0.03], [0.12, 0.12, 0.12])
-        x, y = self._free_spot(margin=float(np.hypot(half[0], half[1])))
-        self._occupied.append((np.array([x, y]), float(np.hypot(half[0], half[1]))))
-        rgba = CLUTTER_COLOURS[int(self.rng.integers(len(CLUTTER_COLOURS)))]
-        body = self._static_box(half.tolist(), [x, y, half[2]], rgba)
-        yaw = float(self.rng.uniform(0, np.pi))
-        self._client.resetBasePositionAndOrientation(body, [x, y, half[2]], self._client.getQuaternionFromEuler([0, 0, yaw]))
+    def _place_clutter(self, box) -> int:
+        body = self._static_box(list(box.half), list(box.centre), box.rgba)
+        self._client.resetBasePositionAndOrientation(body, list(box.centre), self._client.getQuaternionFromEuler([0, 0, box.yaw]))
         return body
 
     def _make_ball(self, rgba) -> int:
