@@ -1,10 +1,14 @@
-"""The paper's experiments, measured: mirroring (one teacher; two teachers in turn), ball seeking,
+"""The paper's experiments, measured: mirroring (one teacher; two teachers in turn), ball seeking
 and the orange ball, over several seeds, single process, simulated time as fast as it goes.
 
     .venv/bin/python benchmarks/experiments.py [--seeds 10] [--quick] [--out DIR]
 
-Prints a table (median and worst over seeds beside the paper's claim and the target), writes the
-Figure 5 PNGs and every run's trace under --out, and ends with one JSON line of the figures.
+The system as wired: LWPR (per-output LWPR where partial teachers teach, as deploy/mirroring.toml),
+ball seeking on the colour-blind slot layout (as deploy/ballseek.toml). Baselines measured in the
+same run: the teacher's own success on the student's episodes, and two contrasts that show why
+the wiring is what it is (whole-vector training for two teachers; the per-colour layout for the
+orange ball). Prints a table, writes the Figure 5 PNGs and every trace under --out, and ends with
+one JSON line of the figures.
 """
 from __future__ import annotations
 
@@ -22,24 +26,24 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from bus_schema.spaces import Spaces  # noqa: E402
 from services.experiments import ballseek, mirroring  # noqa: E402
 from services.experiments.ballseek_protocol import run_ballseek, teacher_success  # noqa: E402
 from services.experiments.evaluate import first_band_drop, plot_error  # noqa: E402
-from services.platforms.aibo.platform import JOINTS_BOX, MOVE_BOX  # noqa: E402
-from bus_schema.spaces import Spaces  # noqa: E402
+from services.platforms.aibo.platform import JOINTS_BOX  # noqa: E402
 
-FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5}
-QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 5, "orange": 2}
-LAYOUTS = {"colours": "detector layout (as wired)", "slots": "colour-blind slots (blob_slots.py)"}
+FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5, "contrast_seeds": 3}
+QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 5, "orange": 2, "contrast_seeds": 1}
 
 
-def figure5(out: Path, name: str, trace, error, title: str, window: int) -> dict:
-    """Save the PNG and the trace; return whether the error fell during the first teaching span."""
+def figure5(out: Path, name: str, trace, error, title: str, window: int, phases: dict | None = None) -> dict:
+    """Save the PNG and the trace; say whether the error fell during the first teaching span."""
     arrays = trace.arrays()
     np.savez_compressed(out / f"{name}.npz", error=error, **arrays)
-    plot_error(out / f"{name}.png", arrays["t"], error, arrays["teaching"], title, smooth_window=window)
+    plot_error(out / f"{name}.png", arrays["t"], error, arrays["teaching"], title, smooth_window=window, phases=phases)
     start, end = first_band_drop(arrays["t"], error, arrays["teaching"])
-    return {"first_second": round(start, 4), "last_second": round(end, 4), "falls": bool(end < start)}
+    return {"png": f"{name}.png", "first_second": round(start, 4), "last_second": round(end, 4),
+            "falls": bool(end < start)}
 
 
 def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
@@ -54,12 +58,11 @@ def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
                                           f"Mirroring, one teacher (seed {seed}): head error, rad", 15)
     for seed in tqdm(seeds, desc="mirroring, two teachers", file=sys.stderr):
         row = {"seed": seed}
-        for masked in (False, True):
+        for masked, tag in ((True, ""), (False, "_whole_vector")):
             result = mirroring.two_teachers(seed, learner, seconds_each=sizes["seconds_each"], masked=masked)
-            tag = "_masked" if masked else ""
             row.update({f"after_pan{tag}": result.curve[0][1], f"final_err{tag}": result.final_error})
             if seed == seeds[0]:
-                how = "only taught outputs trained (proposal)" if masked else "as wired"
+                how = "per-output learner" if masked else "whole vector trained (contrast)"
                 plots[f"mirror_two{tag}"] = figure5(out, f"mirror_two{tag}_seed{seed}", result.trace,
                                                     mirroring.figure5_error(result.trace, spaces),
                                                     f"Mirroring, pan then tilt teacher, {how} (seed {seed})", 15)
@@ -68,16 +71,23 @@ def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
 
 
 def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, episodes: int) -> dict:
+    """The whole V.B protocol per seed; `episodes` = 0 runs teaching and the orange ball only."""
     rows, plots = [], {}
-    for seed in tqdm(seeds, desc=f"ball seeking + orange, {inputs}", file=sys.stderr):
+    what = "ball seeking + orange" if episodes else "orange only"
+    for seed in tqdm(seeds, desc=f"{what}, {inputs} layout", file=sys.stderr):
         r = run_ballseek(seed, learner, n_episodes=episodes, n_orange=sizes["orange"], inputs=inputs)
-        rows.append({"seed": seed, "taught_s": r.teaching_seconds, "success": r.success if episodes else None,
-                     "reach_times": r.reach_times, "orange_before": r.orange_before, "orange_after": r.orange_after})
+        row = {"seed": seed, "taught_s": r.teaching_seconds, "reach_times": r.reach_times,
+               "orange_before": r.orange_before, "orange_after": r.orange_after}
+        if episodes:
+            row["success"] = r.success
+            row["teacher_success"] = teacher_success(seed, episodes, inputs=inputs)
+            row["teacher_success_anywhere"] = teacher_success(seed, episodes, inputs=inputs, in_view=False)
+        rows.append(row)
         if seed == seeds[0]:
             plots[f"ballseek_{inputs}"] = figure5(out, f"ballseek_{inputs}_seed{seed}", r.trace,
                                                   ballseek.figure5_error(r.trace, r.spaces, r.teacher),
-                                                  f"Ball seeking, {LAYOUTS[inputs]} (seed {seed}): teacher vs student",
-                                                  10)
+                                                  f"Ball seeking, {inputs} layout (seed {seed}): teacher vs student, "
+                                                  "RMS / half range", 10, r.phases)
     return {"rows": rows, "plots": plots}
 
 
@@ -87,8 +97,8 @@ def finite_or_none(value: float) -> float | None:
 
 
 def orange_figures(rows: list, tag: str) -> dict:
-    """Pooled fraction of orange-only episodes where the student reached the orange ball, and the
-    worst seed (most approaches before would be best, so its worst is the fewest; after, the most)."""
+    """Fraction of orange-only episodes where the student reached the orange ball, pooled over
+    seeds, and the worst seed (before correction the worst is the fewest; after, the most)."""
     before = [np.mean(r["orange_before"]) for r in rows]
     after = [np.mean(r["orange_after"]) for r in rows]
     return {f"orange_before{tag}": round(float(np.mean(np.concatenate([r["orange_before"] for r in rows]))), 3),
@@ -97,30 +107,35 @@ def orange_figures(rows: list, tag: str) -> dict:
             f"orange_after{tag}_worst": round(float(np.max(after)), 3)}
 
 
-def summarise(mirror: dict, colours: dict, slots: dict, teacher_ceiling: float | None) -> dict:
+def summarise(mirror: dict, balls: dict, contrast: dict) -> dict:
     teach = [r["teach_s"] for r in mirror["one"]]
     reached = [t for t in teach if t is not None]
     two = [r["final_err"] for r in mirror["two"]]
-    two_masked = [r["final_err_masked"] for r in mirror["two"]]
-    success = [r["success"] for r in colours["rows"]]
+    whole = [r["final_err_whole_vector"] for r in mirror["two"]]
+    success = [r["success"] for r in balls["rows"]]
+    ceiling = [r["teacher_success"] for r in balls["rows"]]
+    anywhere = [r["teacher_success_anywhere"] for r in balls["rows"]]
     return {
         "seeds": len(teach),
         "mirror_teach_s_median": finite_or_none(np.median([np.inf if t is None else t for t in teach])),
         "mirror_teach_s_worst": max(reached) if len(reached) == len(teach) else None,
         "mirror_never_under": len(teach) - len(reached),
-        # the system as wired: partial teachers train only their outputs (per-output learner)
-        "mirror_two_teachers_err": round(float(np.median(two_masked)), 4),
-        "mirror_two_teachers_err_worst": round(float(np.max(two_masked)), 4),
-        "mirror_two_teachers_err_whole_vector": round(float(np.median(two)), 4),
-        "mirror_two_teachers_err_whole_vector_worst": round(float(np.max(two)), 4),
+        "mirror_two_teachers_err": round(float(np.median(two)), 4),
+        "mirror_two_teachers_err_worst": round(float(np.max(two)), 4),
+        "mirror_two_teachers_err_whole_vector": round(float(np.median(whole)), 4),
+        "mirror_two_teachers_err_whole_vector_worst": round(float(np.max(whole)), 4),
         "ballseek_success": float(np.median(success)),
         "ballseek_success_worst": float(np.min(success)),
         "ballseek_success_pooled": round(float(np.mean(success)), 3),
-        "ballseek_teacher_success": teacher_ceiling,
-        # orange as wired for the experiment: perception --layout slots (colour an input)
-        **orange_figures(slots["rows"], ""),
-        **orange_figures(colours["rows"], "_colours"),
-        "figure5_error_falls": {k: v["falls"] for k, v in {**mirror["plots"], **colours["plots"], **slots["plots"]}.items()},
+        "ballseek_teacher_success": round(float(np.mean(ceiling)), 3),
+        "ballseek_teacher_success_worst": float(np.min(ceiling)),
+        "ballseek_student_over_teacher": round(float(np.mean(success) / max(np.mean(ceiling), 1e-9)), 3),
+        "ballseek_teacher_success_anywhere": round(float(np.mean(anywhere)), 3),
+        "ballseek_teacher_success_anywhere_worst": float(np.min(anywhere)),
+        **orange_figures(balls["rows"], ""),
+        **orange_figures(contrast["rows"], "_colours"),
+        "orange_colours_seeds": len(contrast["rows"]),
+        "figure5_error_falls": {k: v["falls"] for k, v in {**mirror["plots"], **balls["plots"], **contrast["plots"]}.items()},
     }
 
 
@@ -129,27 +144,32 @@ def table(s: dict, quick: bool) -> str:
         return "never" if v is None else f"{v:.1f} s"
 
     def row(name, median, worst, claim):
-        return f"{name:60} {median:>8} {worst:>8}  {claim}"
-    lines = [row("figure", "median", "worst", "paper / target"), "-" * 114,
+        return f"{name:62} {median:>8} {worst:>8}  {claim}"
+    pct = "{:.0%}".format
+    lines = [row("figure", "median", "worst", "paper / target"), "-" * 112,
              row("1 mirroring: teaching until held-out RMS < 0.05 rad", sec(s["mirror_teach_s_median"]),
                  sec(s["mirror_teach_s_worst"]), "< 10 s / < 5 s"),
-             row("2 two teachers in turn, held-out RMS (rad), per-output", f"{s['mirror_two_teachers_err']:.3f}",
-                 f"{s['mirror_two_teachers_err_worst']:.3f}", "merges both / < 0.05"),
-             row("  same, whole output vector trained (before)", f"{s['mirror_two_teachers_err_whole_vector']:.3f}",
-                 f"{s['mirror_two_teachers_err_whole_vector_worst']:.3f}", "merges both / < 0.05"),
-             row("3 ball seeking: student success, 30 s episodes", f"{s['ballseek_success']:.0%}",
-                 f"{s['ballseek_success_worst']:.0%}", "works after < 1 min / >= 90%")]
-    for tag, name in (("", "colour-blind slots"), ("_colours", "per-colour layout")):
-        lines += [row(f"4 approaches orange before correction, {name}", f"{s['orange_before' + tag]:.0%}",
-                      f"{s['orange_before' + tag + '_worst']:.0%}", "approaches it / most"),
-                  row(f"4 approaches orange after 20 s correction, {name}", f"{s['orange_after' + tag]:.0%}",
-                      f"{s['orange_after' + tag + '_worst']:.0%}", "ignores it / <= 10%")]
-    lines.append(row("5 Figure 5: error falls in the first teaching span", str(all(s["figure5_error_falls"].values())),
-                     "", "falls / every plot"))
-    lines.append("   orange: pooled over all episodes (median column) and the worst seed")
-    if s["ballseek_teacher_success"] is not None:
-        lines.append(f"   teacher's own success on seed 0's 30 s episodes: {s['ballseek_teacher_success']:.0%}")
-    lines.append(f"   seeds: {s['seeds']}{' (quick: shortened runs, ball seeking on one seed)' if quick else ''}")
+             row("2 two teachers in turn, held-out RMS (rad)", f"{s['mirror_two_teachers_err']:.4f}",
+                 f"{s['mirror_two_teachers_err_worst']:.4f}", "merges both / < 0.05"),
+             row("    contrast: the whole output vector trained", f"{s['mirror_two_teachers_err_whole_vector']:.3f}",
+                 f"{s['mirror_two_teachers_err_whole_vector_worst']:.3f}", ""),
+             row("3 ball seeking: student reaches pink, 20 episodes of 30 s", pct(s["ballseek_success"]),
+                 pct(s["ballseek_success_worst"]), "works after < 1 min / >= 90%"),
+             row("    baseline: the teacher itself on the same episodes", pct(s["ballseek_teacher_success"]),
+                 pct(s["ballseek_teacher_success_worst"]), f"student / teacher {s['ballseek_student_over_teacher']:.2f}"),
+             row("    contrast: the teacher, balls behind the clutter too", pct(s["ballseek_teacher_success_anywhere"]),
+                 pct(s["ballseek_teacher_success_anywhere_worst"]), "(a person puts the ball in view)"),
+             row("4 approaches orange before correction (pooled)", pct(s["orange_before"]),
+                 pct(s["orange_before_worst"]), "approaches it / most"),
+             row("4 approaches orange after 20 s of correction (pooled)", pct(s["orange_after"]),
+                 pct(s["orange_after_worst"]), "ignores it / <= 10%"),
+             row(f"    contrast: per-colour layout, before ({s['orange_colours_seeds']} seeds)",
+                 pct(s["orange_before_colours"]), pct(s["orange_before_colours_worst"]), ""),
+             row("    contrast: per-colour layout, after", pct(s["orange_after_colours"]),
+                 pct(s["orange_after_colours_worst"]), ""),
+             row("5 Figure 5: error falls in the first teaching span",
+                 f"{sum(s['figure5_error_falls'].values())}/{len(s['figure5_error_falls'])}", "", "falls / every plot"),
+             f"   seeds: {s['seeds']}{' (quick: shortened runs, fewer episodes)' if quick else ''}"]
     return "\n".join(lines)
 
 
@@ -160,13 +180,12 @@ def main(seeds: int, quick: bool, out: Path, learner: str) -> dict:
     started = time.perf_counter()
     mirror = run_mirroring(seed_list, learner, sizes, out)
     ball_seeds = seed_list[:1] if quick else seed_list
-    colours = run_ballseeking(ball_seeds, learner, sizes, out, "colours", sizes["episodes"])
-    slots = run_ballseeking(ball_seeds, learner, sizes, out, "slots", 0)  # the orange experiment only
-    ceiling = None if quick else teacher_success(0, sizes["episodes"])
-    summary = summarise(mirror, colours, slots, ceiling)
+    balls = run_ballseeking(ball_seeds, learner, sizes, out, "slots", sizes["episodes"])
+    contrast = run_ballseeking(seed_list[:sizes["contrast_seeds"]], learner, sizes, out, "colours", 0)
+    summary = summarise(mirror, balls, contrast)
     summary["wall_s"] = round(time.perf_counter() - started, 1)
-    (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "colours": colours,
-                                                  "slots": slots}, indent=1, default=float))
+    (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "ballseek": balls,
+                                                  "orange_colours": contrast}, indent=1, default=float))
     print(table(summary, quick))
     print(f"plots and data: {out}")
     return summary

@@ -25,6 +25,17 @@ def test_registered_and_confident():
     assert isinstance(teacher, BallSeekTeacher) and confidence == 1.0 and y.shape == (2,)
 
 
+def test_the_registered_name_reads_the_slot_layout_too():
+    from services.perception.slots import BlobSlots
+    from services.teachers.ballseek import SlotBallSeekTeacher
+
+    slots = BlobSlots()
+    teacher = make_teacher("ballseek", Spaces(slots.box(), MOVE_BOX))
+    pink_right = blobs(pink=(0.5, 0.0, 0.01))
+    assert isinstance(teacher, SlotBallSeekTeacher)
+    np.testing.assert_array_equal(teacher(slots.encode(pink_right))[0], BallSeekTeacher(SPACES)(pink_right)[0])
+
+
 def test_searches_left_on_the_spot_when_no_pink_ball_is_seen():
     y, _ = BallSeekTeacher(SPACES)(blobs())
     assert y[0] == 0.0 and y[1] > 0  # turn is left-positive
@@ -68,7 +79,7 @@ def test_approaches_a_ball_placed_ahead_and_to_the_right_on_the_physics():
     from services.experiments.ballseek import BallWorld
     from services.experiments.judges import nose_to_ball
 
-    world = BallWorld(seed=0)
+    world = BallWorld(seed=0, inputs="colours")
     try:
         world.start(0, {"pink": (0.75, -0.3)})  # right of the robot, which faces +x: image x > 0
         first = world.observe()

@@ -4,6 +4,7 @@ import pytest
 
 from bus_schema.spaces import Spaces
 from services.experiments.ballseek import ball_spot
+from services.platforms.aibo.arena_layout import EYE_HEIGHT, arena_layout, in_sight
 from services.experiments.ballseek_protocol import schedule_end
 from services.perception.blobs import BlobDetector
 from services.perception.slots import BlobSlots
@@ -12,6 +13,7 @@ from services.teachers.ballseek import BallSeekTeacher, SlotBallSeekTeacher
 
 PINK, ORANGE = [1.0, 0.3, 0.1, 0.01], [1.0, -0.5, 0.2, 0.04]
 NONE = [0.0] * 4
+ARENA_WITH_HIDING_PLACES = 5
 
 
 def test_slots_put_the_largest_blob_first_and_round_trip():
@@ -46,6 +48,39 @@ def test_ball_spots_lie_in_the_ring_around_the_robot_pose():
     offsets = spots - 1.0
     distance, bearing = np.hypot(*offsets.T), np.arctan2(offsets[:, 1], offsets[:, 0]) - np.pi / 2
     assert distance.min() >= 0.5 and distance.max() <= 1.0 and np.abs(bearing).max() <= 0.4 + 1e-9
+
+
+def test_a_ball_put_down_for_an_episode_is_in_sight_of_the_robot():
+    """Arena 5's clutter hides some of the ring around the robot; spots drawn with the arena are
+    all in sight, and without it some are not (so the check is doing something)."""
+    layout = arena_layout(ARENA_WITH_HIDING_PLACES)
+    free, placed = np.random.default_rng(1), np.random.default_rng(1)
+    unchecked = [ball_spot(free) for _ in range(300)]
+    checked = [ball_spot(placed, arena=ARENA_WITH_HIDING_PLACES) for _ in range(300)]
+    assert not all(in_sight(layout, spot) for spot in unchecked)
+    assert all(in_sight(layout, spot) for spot in checked)
+
+
+def test_in_sight_agrees_with_the_physics_ray_test():
+    """The arena alone (no robot in the way of the rays), built by PyBullet from the same seed."""
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
+
+    from services.platforms.aibo.arena import Arena
+
+    layout, rng = arena_layout(ARENA_WITH_HIDING_PLACES), np.random.default_rng(3)
+    spots = [ball_spot(rng) for _ in range(80)]
+    client = BulletClient(pybullet.DIRECT)
+    try:
+        arena = Arena(client, ARENA_WITH_HIDING_PLACES)
+        agree = 0
+        for x, y in spots:
+            arena.place_ball("pink", (x, y))
+            clear = any(client.rayTest([0, 0, EYE_HEIGHT], [x, y, z])[0][0] in (-1, arena.balls["pink"]) for z in (0.04, 0.08))
+            agree += clear == in_sight(layout, (x, y))
+    finally:
+        client.disconnect()
+    assert agree >= len(spots) - 2  # lines that graze a box's edge may go either way
 
 
 @pytest.mark.parametrize("teach, end", [(60, 80.0), (30, 30.0), (45, 55.0), (100, 80.0)])

@@ -1,6 +1,7 @@
 """Ball seeking end to end as separate processes: the Aibo (lockstep, camera ticks), perception,
 the ball-seeking teacher, a learner and the arbitrator under the supervisor; a scripted user
-teaches on a schedule, then the student runs episodes alone. Figure 5 and the data are saved.
+teaches on a schedule, then the student runs episodes alone, then meets the orange ball before
+and after a short correction. Figure 5 and the data are saved.
 """
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from services.demo.live import LiveRun
-from services.experiments.ballseek import BALLSEEK_RATE_HZ, NEAR, ball_spot
+from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, ball_spot
 from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE,
                                                    arena_seed, phase_rng)
 from services.experiments.evaluate import error_over_time, plot_error, teacher_outputs
@@ -20,7 +21,7 @@ from services.experiments.user import ScriptedUser
 from services.perception.blobs import BlobDetector
 from services.perception.slots import BlobSlots
 from services.platforms.aibo.platform import MOVE_BOX
-from services.teachers.ballseek import BallSeekTeacher, SlotBallSeekTeacher
+from services.teachers.ballseek import ball_seek_teacher
 from bus_schema.spaces import Spaces
 
 PROFILE = """
@@ -38,7 +39,7 @@ args = ["--layout", "{layout}"]
 
 [services.seeker]
 box = "demonstrator"
-args = ["--teacher", "{teacher}"]
+args = ["--teacher", "ballseek"]
 
 [services.learner]
 box = "learner"
@@ -73,17 +74,18 @@ def episode(run: LiveRun, arena: int, balls: dict, seconds: float, rate: float, 
     return reached_at
 
 
-def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: str = "colours") -> dict:
-    """Teacher run on every input the student saw; error against the student's answer over time."""
+def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: str = "slots",
+            phases: dict | None = None) -> dict:
+    """Teacher run on every input the student saw; error against the student's answer over time.
+    Returns the mean error while taught, and on the student's own ticks of each of `phases`
+    (name -> (first tick, end tick)) as error_<name>."""
     inputs = {m.tick: m.x for m in run.inputs()}
     student = {p.tick: p.y for p in run.learner_proposals()}
     modes = {c.tick: c.mode for c in run.commands()}
     ticks = sorted(t for t in inputs if t in student and t in modes and t >= first_tick)
     x = np.array([inputs[t] for t in ticks])
-    if layout == "slots":
-        teacher = SlotBallSeekTeacher(Spaces(BlobSlots().box(), MOVE_BOX))
-    else:
-        teacher = BallSeekTeacher(Spaces(BlobDetector().box(), MOVE_BOX))
+    box = BlobSlots().box() if layout == "slots" else BlobDetector().box()
+    teacher = ball_seek_teacher(Spaces(box, MOVE_BOX))
     teacher_y = teacher_outputs(teacher, x)
     student_y = np.array([student[t] for t in ticks])
     scale = (np.array(MOVE_BOX.high) - np.array(MOVE_BOX.low)) / 2
@@ -91,20 +93,26 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
     teaching = np.array([modes[t] == "teacher" for t in ticks])
     t = (np.array(ticks, dtype=float) - first_tick) / rate
     np.savez(out / "run.npz", t=t, x=x, student_y=student_y, teacher_y=teacher_y, error=error, teaching=teaching)
+    spans = {name: ((start - first_tick) / rate, (min(end, ticks[-1]) - first_tick) / rate)
+             for name, (start, end) in (phases or {}).items()} if ticks else {}
     plot_error(out / "figure5.png", t, error, teaching, "Ball seeking: teacher vs student (Figure 5)",
-               ylabel="RMS error / half range", smooth_window=5)
-    on, off = error[teaching], error[~teaching]
-    return {"ticks": len(ticks), "error_teaching": float(np.mean(on)) if len(on) else None,
-            "error_student": float(np.mean(off)) if len(off) else None}
+               ylabel="RMS error / half range", smooth_window=5, phases=spans)
+    ticks = np.array(ticks)
+
+    def mean(chosen):
+        return float(np.mean(error[chosen])) if chosen.any() else None
+    figures = {"ticks": len(ticks), "error_teaching": mean(teaching)}
+    for name, (start, end) in (phases or {"student": (first_tick, np.inf)}).items():
+        figures[f"error_{name}"] = mean(~teaching & (ticks >= start) & (ticks < end))
+    return figures
 
 
 def start_ballseek(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0,
-                   rate: float = BALLSEEK_RATE_HZ, layout: str = "colours") -> LiveRun:
+                   rate: float = BALLSEEK_RATE_HZ, layout: str = "slots") -> LiveRun:
     run_dir.mkdir(parents=True, exist_ok=True)
     profile = run_dir / "ballseek.toml"
-    teacher = "ballseek-slots" if layout == "slots" else "ballseek"
     profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=rate, seed=seed, learner=learner,
-                                      state=run_dir / "state", layout=layout, teacher=teacher))
+                                      state=run_dir / "state", layout=layout))
     run = LiveRun(profile, run_dir, endpoint)
     run.wait_ready()
     return run
@@ -117,7 +125,8 @@ def teach_phase(run: LiveRun, schedule, seed: int, rate: float) -> int:
     t0, teaching, taught = run.tick(), False, 0
     end = schedule[-1][1] if schedule else 0.0
     while (run.tick() - t0) / rate < end:
-        run.reset_arena(arena_seed(rng), {"pink": ball_spot(rng), "orange": None})
+        arena = arena_seed(rng)
+        run.reset_arena(arena, {"pink": ball_spot(rng, arena=arena), "orange": None})
         episode_start = run.tick()
         while (run.tick() - episode_start) / rate < TEACHING_EPISODE_SECONDS and (run.tick() - t0) / rate < end:
             want = user.teaching((run.tick() - t0) / rate)
@@ -131,12 +140,13 @@ def teach_phase(run: LiveRun, schedule, seed: int, rate: float) -> int:
 
 
 def ball_episodes(run: LiveRun, count: int, seconds: float, seed: int, phase: str, rate: float,
-                  target: str = "pink", far: float = 1.3, on_episode=None) -> list:
+                  target: str = "pink", far: float = FAR, on_episode=None) -> list:
     """`count` student-only episodes with only the `target` ball: time to reach it, or None each."""
     rng, other = phase_rng(seed, phase), "orange" if target == "pink" else "pink"
     results = []
     for i in range(count):
-        results.append(episode(run, arena_seed(rng), {target: ball_spot(rng, NEAR, far), other: None}, seconds,
+        arena = arena_seed(rng)
+        results.append(episode(run, arena, {target: ball_spot(rng, NEAR, far, arena=arena), other: None}, seconds,
                                rate, target=target, stop_when_reached=True))
         if on_episode:
             on_episode(i, results[-1])
@@ -149,35 +159,57 @@ def correct_orange(run: LiveRun, seconds: float, seed: int, rate: float) -> None
     rng = phase_rng(seed, "correct")
     run.teach(True)
     for _ in range(int(round(seconds / 3.0))):
-        run.reset_arena(arena_seed(rng), {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4)),
-                                           "pink": None})
+        arena = arena_seed(rng)
+        spot = ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), arena=arena)
+        run.reset_arena(arena, {"orange": spot, "pink": None})
         run.run_ticks(int(3.0 * rate))
     run.teach(False)
 
 
 def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0, episodes: int = 6,
-                      episode_seconds: float = 30.0, schedule=TEACHING_SCHEDULE, rate: float = BALLSEEK_RATE_HZ,
-                      log=print) -> dict:
+                      episode_seconds: float = 30.0, orange_episodes: int = 3, orange_seconds: float = 20.0,
+                      correction_seconds: float = 20.0, schedule=TEACHING_SCHEDULE, rate: float = BALLSEEK_RATE_HZ,
+                      layout: str = "slots", log=print) -> dict:
+    """Teach on `schedule`; `episodes` student-only pink episodes; then, unless `orange_episodes`
+    is 0, that many orange-only episodes, a correction with orange in view, and as many again."""
     started = time.monotonic()
-    run = start_ballseek(run_dir, endpoint, learner, seed, rate)
+
+    def say(text: str) -> None:
+        log(f"{time.monotonic() - started:5.1f} s  {text}")
+
+    def report(ball: str):
+        return lambda i, reached: say(f"episode {i + 1}: " + (f"reached the {ball} ball in {reached:.1f} s"
+                                                               if reached is not None else f"did not reach the {ball} ball"))
+
+    run = start_ballseek(run_dir, endpoint, learner, seed, rate, layout)
+    summary = {"learner": learner, "seed": seed, "layout": layout, "episodes": episodes}
     try:
-        log(f"{time.monotonic() - started:5.1f} s  all services ready; teaching (schedule {schedule})")
+        say(f"all services ready; teaching with the pink ball (schedule {schedule}, simulated seconds)")
         t0 = run.tick()
-        taught_ticks = teach_phase(run, schedule, seed, rate)
-        log(f"{time.monotonic() - started:5.1f} s  taught {taught_ticks / rate:.0f} s; the student alone now")
-
-        def report(i, reached):
-            log(f"{time.monotonic() - started:5.1f} s  episode {i + 1}: "
-                + (f"reached the pink ball in {reached:.1f} s" if reached is not None else "did not reach it"))
-
-        reach = ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate, on_episode=report)
-        errors = figure5(run, rate, run_dir, first_tick=t0)
-        summary = {"learner": learner, "seed": seed, "taught_s": taught_ticks / rate,
-                   "episodes": episodes, "successes": sum(r is not None for r in reach),
-                   "reach_s": reach, **errors, "wall_s": round(time.monotonic() - started, 1),
-                   "figure5": str(run_dir / "figure5.png")}
+        summary["taught_s"] = teach_phase(run, schedule, seed, rate) / rate
+        say(f"taught {summary['taught_s']:.0f} s; the student alone now")
+        phases = {"student": [run.tick()]}
+        reach = ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate, on_episode=report("pink"))
+        summary.update(successes=sum(r is not None for r in reach), reach_s=reach)
+        phases["student"].append(run.tick())
+        if orange_episodes:
+            say("the orange ball alone, never seen while taught: does the student chase it like the pink one?")
+            phases["orange_before"] = [run.tick()]
+            before = ball_episodes(run, orange_episodes, orange_seconds, seed, "orange_before", rate, target="orange",
+                                   far=ORANGE_FAR, on_episode=report("orange"))
+            phases["orange_before"].append(run.tick())
+            say(f"correction: {correction_seconds:.0f} s of teaching with the orange ball in front of the robot")
+            correct_orange(run, correction_seconds, seed, rate)
+            phases["orange_after"] = [run.tick()]
+            after = ball_episodes(run, orange_episodes, orange_seconds, seed, "orange_after", rate, target="orange",
+                                  far=ORANGE_FAR, on_episode=report("orange"))
+            phases["orange_after"].append(run.tick())
+            summary.update(orange_episodes=orange_episodes, orange_before=sum(r is not None for r in before),
+                           orange_after=sum(r is not None for r in after))
+        summary.update(figure5(run, rate, run_dir, first_tick=t0, layout=layout, phases=phases),
+                       figure5_png=str(run_dir / "figure5.png"))
     finally:
         code = run.close()
-    summary["supervisor_exit"] = code
+    summary.update(supervisor_exit=code, wall_s=round(time.monotonic() - started, 1))
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary

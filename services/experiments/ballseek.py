@@ -22,21 +22,30 @@ from services.experiments.judges import REACH_RADIUS, nose_to_ball
 from services.experiments.loop import Trace, tick
 from services.perception.blobs import BlobDetector
 from services.perception.slots import BlobSlots
+from services.platforms.aibo.arena_layout import EYE_HEIGHT, arena_layout, in_sight
 from services.platforms.aibo.platform import AiboPlatform
-from services.teachers.ballseek import BallSeekTeacher, SlotBallSeekTeacher
+from services.teachers.ballseek import ball_seek_teacher
 
 BALLSEEK_RATE_HZ = 5.0
 INPUT_LAYOUTS = ("colours", "slots")
 NEAR, FAR = 0.5, 1.3  # ball distances (m) from the robot: beyond ~1.4 m a ball is under 6 pixels
+MAX_DRAWS = 1000
 
 
 def ball_spot(rng: np.random.Generator, near: float = NEAR, far: float = FAR, bearing=(-np.pi, np.pi),
-              pose=((0.0, 0.0), 0.0)) -> tuple[float, float]:
+              pose=((0.0, 0.0), 0.0), arena: int | None = None) -> tuple[float, float]:
     """A floor point `near`..`far` metres from the robot at `pose` ((x, y), yaw), bearing in the range
-    given (radians, left positive), in the robot's frame."""
+    given (radians, left positive), in the robot's frame. With `arena` (its seed), the point is drawn
+    again until the robot can see it from where it stands: a person puts the ball down in view,
+    not behind the clutter (where a robot that searches by turning on the spot never finds it)."""
     (x0, y0), yaw = pose
-    distance, angle = rng.uniform(near, far), yaw + rng.uniform(*bearing)
-    return float(x0 + distance * np.cos(angle)), float(y0 + distance * np.sin(angle))
+    layout = arena_layout(arena) if arena is not None else None
+    for _ in range(MAX_DRAWS):
+        distance, angle = rng.uniform(near, far), yaw + rng.uniform(*bearing)
+        spot = float(x0 + distance * np.cos(angle)), float(y0 + distance * np.sin(angle))
+        if layout is None or in_sight(layout, spot, eye=(x0, y0, EYE_HEIGHT)):
+            return spot
+    raise RuntimeError(f"no spot {near}-{far} m from {pose} in sight in arena {arena} after {MAX_DRAWS} draws")
 
 
 @dataclass
@@ -48,7 +57,7 @@ class BallWorld:
     detector: BlobDetector = field(default_factory=BlobDetector)
     clock: float = 0.0  # simulated seconds over all episodes, for one continuous trace
     rate_hz: float = BALLSEEK_RATE_HZ
-    inputs: str = "colours"  # the detector's layout, or "slots" (services/perception/slots.py: colour-blind slots)
+    inputs: str = "slots"  # colour-blind slots (services/perception/slots.py), or "colours": the detector's layout
 
     def __post_init__(self):
         if self.inputs not in INPUT_LAYOUTS:
@@ -61,7 +70,7 @@ class BallWorld:
 
     def make_teacher(self):
         """The pink-seeking teacher for this world's input layout."""
-        return SlotBallSeekTeacher(self.spaces, self._slots) if self._slots else BallSeekTeacher(self.spaces)
+        return ball_seek_teacher(self.spaces)
 
     @property
     def sim(self):
@@ -69,6 +78,7 @@ class BallWorld:
 
     def start(self, arena_seed: int, balls: dict) -> None:
         """New episode: arena from `arena_seed`; `balls` maps colour to (x, y), absent colours hidden."""
+        self.arena = arena_seed
         self.platform.reset(arena_seed)
         for name in ("pink", "orange"):
             if name in balls:
@@ -116,6 +126,6 @@ def figure5_error(trace: Trace, spaces: Spaces, teacher=None) -> np.ndarray:
     """Figure 5 for ball seeking: the teacher on every input the student saw, against the student's
     prediction; RMS over (forward, turn), each divided by its half-range so both count alike."""
     arrays = trace.arrays()
-    reference = teacher_outputs(teacher or BallSeekTeacher(spaces), arrays["x"])
+    reference = teacher_outputs(teacher or ball_seek_teacher(spaces), arrays["x"])
     half_range = (np.asarray(spaces.output.high) - np.asarray(spaces.output.low)) / 2
     return error_over_time(reference, arrays["student"], scale=half_range)

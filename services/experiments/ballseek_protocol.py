@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from services.experiments.ballseek import BALLSEEK_RATE_HZ, NEAR, BallWorld, ball_spot
+from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, BallWorld, ball_spot
 from services.experiments.loop import Trace
 from services.experiments.user import ScriptedUser
 from services.learners import make_learner
@@ -16,7 +16,7 @@ from services.learners import make_learner
 TEACHING_SCHEDULE = ((0.0, 30.0), (40.0, 60.0), (70.0, 80.0))  # 60 s of teaching over 80 s, as in Figure 5
 TEACHING_EPISODE_SECONDS = 15.0  # the person puts the ball elsewhere after this, or once reached
 ORANGE_FAR = 1.0  # orange episodes are 20 s, so the ball is put where the teacher reaches it in time
-PHASES = {"teach": 1, "episodes": 2, "orange_before": 3, "correct": 4, "orange_after": 5, "teacher": 2}
+PHASES = {"teach": 1, "episodes": 2, "orange_before": 3, "correct": 4, "orange_after": 5}
 
 
 def phase_rng(seed: int, phase: str) -> np.random.Generator:
@@ -32,19 +32,22 @@ def teach(world: BallWorld, learner, teacher, user: ScriptedUser, seconds: float
     user says. A new arena and ball spot each time the ball is reached or after 15 s."""
     rng, start = phase_rng(seed, "teach"), world.clock
     while world.clock - start < seconds - 1e-9:
-        world.start(arena_seed(rng), {"pink": ball_spot(rng)})
+        arena = arena_seed(rng)
+        world.start(arena, {"pink": ball_spot(rng, arena=arena)})
         length = min(TEACHING_EPISODE_SECONDS, seconds - (world.clock - start))
         world.run(length, learner, teacher, user, trace, target="pink")
 
 
 def episodes(world: BallWorld, learner, seed: int, phase: str, count: int, seconds: float, target: str,
-             trace: Trace | None = None, teacher=None, far: float | None = None) -> list:
+             trace: Trace | None = None, teacher=None, far: float | None = None, in_view: bool = True) -> list:
     """`count` episodes of `seconds` with only the `target` ball, the student alone (or the teacher,
-    if given: its own score on the same episodes). Returns the time each reached it, or None."""
+    if given: its own score on the same episodes). Returns the time each reached it, or None.
+    in_view=False puts the ball anywhere in the ring, behind the clutter too."""
     rng = phase_rng(seed, phase)
     results = []
     for _ in range(count):
-        world.start(arena_seed(rng), {target: ball_spot(rng, NEAR, far or 1.3)})
+        arena = arena_seed(rng)
+        world.start(arena, {target: ball_spot(rng, NEAR, far or FAR, arena=arena if in_view else None)})
         results.append(world.run(seconds, learner, teacher, None, trace, target=target))
     return results
 
@@ -59,9 +62,11 @@ def correct(world: BallWorld, learner, teacher, seconds: float, trace: Trace, se
     def put_orange_ahead(w: BallWorld, t: float) -> None:
         if t >= due[0]:
             due[0] += 3.0
-            w.sim.place_ball("orange", ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), pose=w.pose()))
+            w.sim.place_ball("orange", ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), pose=w.pose(),
+                                                        arena=w.arena))
 
-    world.start(arena_seed(rng), {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4))})
+    arena = arena_seed(rng)
+    world.start(arena, {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), arena=arena)})
     world.run(seconds, learner, teacher, None, trace, on_tick=put_orange_ahead)
 
 
@@ -74,6 +79,7 @@ class BallSeekResult:
     trace: Trace = field(repr=False)
     spaces: object = field(repr=False)
     teacher: object = field(repr=False)
+    phases: dict = field(default_factory=dict)  # name -> (start, stop), seconds of the trace's clock
 
     @property
     def success(self) -> float:
@@ -83,25 +89,34 @@ class BallSeekResult:
 def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
                  answer_probability: float = 0.0, n_episodes: int = 20, episode_seconds: float = 30.0,
                  n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0,
-                 rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "colours", **hyper_parameters) -> BallSeekResult:
+                 rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", **hyper_parameters) -> BallSeekResult:
     """The whole V.B protocol for one seed. Teaching lasts until the schedule's teaching time
     (`teach_seconds` of teacher activation at most) has been given."""
     world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
     teacher = world.make_teacher()
     learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed, **hyper_parameters)
     user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
-    trace = Trace()
+    trace, phases = Trace(), {}
+
+    def phase(name: str, run):
+        start = world.clock
+        result = run()
+        phases[name] = (start, world.clock)
+        return result
     try:
-        teach(world, learner, teacher, user, schedule_end(schedule, teach_seconds), trace, seed)
+        phase("taught", lambda: teach(world, learner, teacher, user, schedule_end(schedule, teach_seconds), trace, seed))
         taught = float(np.sum(trace.teaching)) / world.rate_hz
-        reach = episodes(world, learner, seed, "episodes", n_episodes, episode_seconds, "pink", trace)
-        before = episodes(world, learner, seed, "orange_before", n_orange, orange_seconds, "orange", trace, far=ORANGE_FAR)
-        correct(world, learner, teacher, correction_seconds, trace, seed)
-        after = episodes(world, learner, seed, "orange_after", n_orange, orange_seconds, "orange", trace, far=ORANGE_FAR)
+        reach = phase("pink alone", lambda: episodes(world, learner, seed, "episodes", n_episodes, episode_seconds,
+                                                     "pink", trace))
+        before = phase("orange", lambda: episodes(world, learner, seed, "orange_before", n_orange, orange_seconds,
+                                                  "orange", trace, far=ORANGE_FAR))
+        phase("correction", lambda: correct(world, learner, teacher, correction_seconds, trace, seed))
+        after = phase("orange after", lambda: episodes(world, learner, seed, "orange_after", n_orange, orange_seconds,
+                                                       "orange", trace, far=ORANGE_FAR))
     finally:
         world.close()
     return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], trace,
-                          world.spaces, teacher)
+                          world.spaces, teacher, {k: v for k, v in phases.items() if v[1] > v[0]})
 
 
 def schedule_end(schedule, teach_seconds: float) -> float:
@@ -115,13 +130,15 @@ def schedule_end(schedule, teach_seconds: float) -> float:
 
 
 def teacher_success(seed: int, n_episodes: int = 20, episode_seconds: float = 30.0,
-                    rate_hz: float = BALLSEEK_RATE_HZ) -> float:
-    """The teacher's own score on the student's episodes: the ceiling the student is measured against."""
-    world = BallWorld(seed, rate_hz=rate_hz)
+                    rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", in_view: bool = True) -> float:
+    """The teacher's own score on the student's episodes (same seed, same arenas and spots): the
+    baseline the student is measured against. in_view=False: on spots behind the clutter too."""
+    world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
     try:
         teacher = world.make_teacher()
-        dummy = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)
-        reach = episodes(world, dummy, seed, "teacher", n_episodes, episode_seconds, "pink", teacher=teacher)
+        unused = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)  # never asked: the teacher is always on
+        reach = episodes(world, unused, seed, "episodes", n_episodes, episode_seconds, "pink", teacher=teacher,
+                         in_view=in_view)
     finally:
         world.close()
     return float(np.mean([r is not None for r in reach]))

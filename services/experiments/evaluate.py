@@ -67,8 +67,9 @@ def first_band_drop(t: np.ndarray, error: np.ndarray, teaching: np.ndarray, seco
 
 
 def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarray, title: str,
-               ylabel: str = "RMS error", smooth_window: int = 1) -> Path:
-    """Figure 5: error against time, the teacher's active spans shaded. Saves a PNG and returns its path."""
+               ylabel: str = "RMS error", smooth_window: int = 1, phases: dict | None = None) -> Path:
+    """Figure 5: error against time, the teacher's active spans shaded; `phases` (label -> (start,
+    stop) seconds) are marked and named along the top. Saves a PNG and returns its path."""
     import matplotlib
 
     matplotlib.use("Agg")  # headless: no display on CI or the benchmark machine
@@ -80,9 +81,12 @@ def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarra
     ax.plot(t, error, color="0.6", lw=0.6, label="error (per tick)")
     if smooth_window > 1:
         ax.plot(t, moving_average(error, smooth_window), color="tab:blue", lw=1.4, label=f"mean of {smooth_window} ticks")
+    for label, (start, stop) in (phases or {}).items():
+        ax.axvline(start, color="0.3", lw=0.7, ls=":")
+        ax.text((start + stop) / 2, 1.0, label, transform=ax.get_xaxis_transform(), ha="center", va="bottom", fontsize=7)
     ax.set_xlabel("time (s, simulated)")
     ax.set_ylabel(ylabel)
-    ax.set_title(title)
+    ax.set_title(title, pad=14 if phases else 6)
     ax.set_xlim(float(t[0]) if len(t) else 0, float(t[-1]) if len(t) else 1)
     ax.set_ylim(bottom=0)
     ax.legend(loc="upper right", fontsize=8)

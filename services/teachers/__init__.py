@@ -12,8 +12,7 @@ TEACHERS: dict[str, str] = {
     "copy": "services.teachers.functions:CopyTeacher",
     "mirror": "services.teachers.functions:MirrorTeacher",
     "hold": "services.teachers.functions:HoldTeacher",
-    "ballseek": "services.teachers.ballseek:BallSeekTeacher",
-    "ballseek-slots": "services.teachers.ballseek:SlotBallSeekTeacher",
+    "ballseek": "services.teachers.ballseek:ball_seek_teacher",  # either blob layout, from the input names
 }
 
 

@@ -61,3 +61,12 @@ class SlotBallSeekTeacher:
 
     def __call__(self, x: np.ndarray):
         return self._teacher(self.slots.decode(x))
+
+
+def ball_seek_teacher(spaces: Spaces, **params):
+    """The ball-seeking teacher for whichever blob layout the input space names: the detector's
+    per-colour layout (BallSeekTeacher) or the colour-blind slots (SlotBallSeekTeacher)."""
+    slots = BlobSlots()
+    if tuple(spaces.input.names) == slots.names():
+        return SlotBallSeekTeacher(spaces, slots, **params)
+    return BallSeekTeacher(spaces, **params)
