@@ -51,6 +51,10 @@ box = "arbitrator"
 """
 
 
+PHASE_LABELS = {"taught": "taught", "student": "pink alone", "orange_before": "orange, untaught",
+                "correction": "correction", "orange_after": "orange after"}
+
+
 def episode(run: LiveRun, arena: int, balls: dict, seconds: float, rate: float, target: str = "pink",
             stop_when_reached: bool = False) -> float | None:
     """One episode: a fresh arena, then `seconds` of ticks; returns when the nose first came within
@@ -93,7 +97,7 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
     teaching = np.array([modes[t] == "teacher" for t in ticks])
     t = (np.array(ticks, dtype=float) - first_tick) / rate
     np.savez(out / "run.npz", t=t, x=x, student_y=student_y, teacher_y=teacher_y, error=error, teaching=teaching)
-    spans = {name: ((start - first_tick) / rate, (min(end, ticks[-1]) - first_tick) / rate)
+    spans = {PHASE_LABELS.get(name, name): ((start - first_tick) / rate, (min(end, ticks[-1]) - first_tick) / rate)
              for name, (start, end) in (phases or {}).items()} if ticks else {}
     plot_error(out / "figure5.png", t, error, teaching, "Ball seeking: teacher vs student (Figure 5)",
                ylabel="RMS error / half range", smooth_window=5, phases=spans)
@@ -188,7 +192,7 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed:
         t0 = run.tick()
         summary["taught_s"] = teach_phase(run, schedule, seed, rate) / rate
         say(f"taught {summary['taught_s']:.0f} s; the student alone now")
-        phases = {"student": [run.tick()]}
+        phases = {"taught": [t0, run.tick()], "student": [run.tick()]}
         reach = ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate, on_episode=report("pink"))
         summary.update(successes=sum(r is not None for r in reach), reach_s=reach)
         phases["student"].append(run.tick())
@@ -198,8 +202,10 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed:
             before = ball_episodes(run, orange_episodes, orange_seconds, seed, "orange_before", rate, target="orange",
                                    far=ORANGE_FAR, on_episode=report("orange"))
             phases["orange_before"].append(run.tick())
+            phases["correction"] = [run.tick()]
             say(f"correction: {correction_seconds:.0f} s of teaching with the orange ball in front of the robot")
             correct_orange(run, correction_seconds, seed, rate)
+            phases["correction"].append(run.tick())
             phases["orange_after"] = [run.tick()]
             after = ball_episodes(run, orange_episodes, orange_seconds, seed, "orange_after", rate, target="orange",
                                   far=ORANGE_FAR, on_episode=report("orange"))
