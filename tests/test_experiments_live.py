@@ -42,6 +42,20 @@ def test_ballseek_live_student_reaches_pink_then_learns_to_ignore_orange(tmp_pat
     assert summary["error_student"] < 0.25 and np.mean(data["error"][first_teach[:5]]) > summary["error_teaching"]
 
 
+def test_ballseek_live_untaught_robot_asks_and_the_scripted_person_answers(tmp_path):
+    """Mixed initiative over the bus: the lesson is scheduled at 10 s, but the untaught robot is
+    unsure from its first commands and a person who always answers teaches it at once (2 s)."""
+    summary = run_ballseek_live(tmp_path, endpoint(), episodes=0, orange_episodes=0, schedule=((10.0, 12.0),),
+                                answer_probability=1.0, log=print)
+    data = np.load(tmp_path / "run.npz")
+    first_taught = float(data["t"][np.flatnonzero(data["teaching"])[0]])
+    print(f"answered at {first_taught:.1f} s; taught {summary['taught_s']:.1f} s")
+    assert summary["supervisor_exit"] == 0
+    # answered at once, and taught more than the 2 s lesson alone (ticks are counted as the test
+    # sees them, and the loop may run ahead of it by a tick or two)
+    assert first_taught < 2.0 and summary["taught_s"] > 2.5
+
+
 def test_mirroring_two_teachers_in_turn_merge_live(tmp_path):
     """Pan is taught, then tilt, by two partial teachers; the student then mirrors both axes."""
     run = start_mirroring(tmp_path, endpoint(), learner="per-output", learner_params={"base": "lwpr"},

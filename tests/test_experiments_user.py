@@ -43,3 +43,19 @@ def test_answers_are_repeatable_by_seed_and_differ_between_seeds():
 def test_probability_out_of_range_is_refused():
     with pytest.raises(ValueError, match=r"answer_probability must be in \[0, 1\]"):
         ScriptedUser(answer_probability=1.5)
+
+
+def test_in_the_loop_an_untaught_robot_asks_and_the_user_answers():
+    """Ball seeking in one process: the lesson is scheduled at 10 s. Untaught, the robot is unsure
+    from its first tick; a user who never answers leaves it asking until 10 s, one who always
+    answers teaches at once, for answer_seconds (2 s)."""
+    from services.experiments.ballseek_protocol import run_ballseek
+
+    def run(p):
+        r = run_ballseek(0, schedule=((10.0, 15.0),), teach_seconds=5.0, answer_probability=p, n_episodes=0,
+                         n_orange=0, correction_seconds=0.0)
+        a = r.trace.arrays()
+        return r.teaching_seconds, int(np.sum(a["mode"] == "unsure")), float(a["t"][np.argmax(a["teaching"])])
+
+    assert run(0.0) == (5.0, 50, 10.0)   # 10 s unsure at 5 Hz, taught only on schedule
+    assert run(1.0) == (7.0, 1, 0.2)     # asked once, answered from the next tick for 2 s

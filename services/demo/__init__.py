@@ -20,13 +20,17 @@ def cli(argv=None) -> int:
     parser.add_argument("--episodes", type=int, default=6, help="student-only pink episodes (default 6)")
     parser.add_argument("--orange-episodes", type=int, default=3,
                         help="orange-only episodes before and after the correction (default 3; 0 skips the orange ball)")
+    parser.add_argument("--answer-unsure", type=float, default=0.0, metavar="P",
+                        help="between lessons, the scripted person answers the robot's requests (green ears) with probability P")
     parser.add_argument("--out", default=None, help="run folder (default runs/<timestamp>)")
     args = parser.parse_args(argv)
+    if not 0.0 <= args.answer_unsure <= 1.0:
+        parser.error(f"--answer-unsure is a probability in [0, 1], got {args.answer_unsure}")
     from services.demo.ballseek import run_ballseek_live
     run_dir = Path(args.out or f"runs/{time.strftime('%Y%m%d-%H%M%S')}")
     print(f"dogged demo: ball seeking on a simulated Aibo, all boxes as processes over Zenoh -> {run_dir}/")
     s = run_ballseek_live(run_dir, free_endpoint(), args.learner, args.seed, args.episodes,
-                          orange_episodes=args.orange_episodes)
+                          orange_episodes=args.orange_episodes, answer_probability=args.answer_unsure)
     print(f"\nsummary: after {s['taught_s']:.0f} s of teaching, the student alone reached the pink ball in "
           f"{s['successes']} of {s['episodes']} episodes (30 s each, nose within 0.2 m)")
     if args.orange_episodes:

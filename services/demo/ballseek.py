@@ -122,10 +122,12 @@ def start_ballseek(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: in
     return run
 
 
-def teach_phase(run: LiveRun, schedule, seed: int, rate: float) -> int:
+def teach_phase(run: LiveRun, schedule, seed: int, rate: float, answer_probability: float = 0.0) -> int:
     """The scripted user teaches on `schedule` (sim seconds) over fresh arenas with only the pink
-    ball, a new one every 15 s; returns how many ticks were taught."""
-    user, rng = ScriptedUser(schedule=schedule, seed=seed), phase_rng(seed, "teach")
+    ball, a new one every 15 s, and answers the robot's unsure requests (green ears) with
+    `answer_probability`; returns how many ticks were taught."""
+    user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
+    rng = phase_rng(seed, "teach")
     t0, teaching, taught = run.tick(), False, 0
     end = schedule[-1][1] if schedule else 0.0
     while (run.tick() - t0) / rate < end:
@@ -133,7 +135,7 @@ def teach_phase(run: LiveRun, schedule, seed: int, rate: float) -> int:
         run.reset_arena(arena, {"pink": ball_spot(rng, arena=arena), "orange": None})
         episode_start = run.tick()
         while (run.tick() - episode_start) / rate < TEACHING_EPISODE_SECONDS and (run.tick() - t0) / rate < end:
-            want = user.teaching((run.tick() - t0) / rate)
+            want = user.teaching((run.tick() - t0) / rate, run.mode() == "unsure")
             if want != teaching:
                 run.teach(want)
                 teaching = want
@@ -173,7 +175,7 @@ def correct_orange(run: LiveRun, seconds: float, seed: int, rate: float) -> None
 def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0, episodes: int = 6,
                       episode_seconds: float = 30.0, orange_episodes: int = 3, orange_seconds: float = 20.0,
                       correction_seconds: float = 20.0, schedule=TEACHING_SCHEDULE, rate: float = BALLSEEK_RATE_HZ,
-                      layout: str = "slots", log=print) -> dict:
+                      layout: str = "slots", answer_probability: float = 0.0, log=print) -> dict:
     """Teach on `schedule`; `episodes` student-only pink episodes; then, unless `orange_episodes`
     is 0, that many orange-only episodes, a correction with orange in view, and as many again."""
     started = time.monotonic()
@@ -190,7 +192,7 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed:
     try:
         say(f"all services ready; teaching with the pink ball (schedule {schedule}, simulated seconds)")
         t0 = run.tick()
-        summary["taught_s"] = teach_phase(run, schedule, seed, rate) / rate
+        summary["taught_s"] = teach_phase(run, schedule, seed, rate, answer_probability) / rate
         say(f"taught {summary['taught_s']:.0f} s; the student alone now")
         phases = {"taught": [t0, run.tick()], "student": [run.tick()]}
         reach = ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate, on_episode=report("pink"))

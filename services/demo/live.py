@@ -72,6 +72,11 @@ class LiveRun:
         wait_matching(self._arena, 5.0)
         self._arena.put(encode(ArenaReset(seed, balls)))
 
+    def mode(self) -> str:
+        """The mode of the newest command: teacher, student, or unsure (the robot asks to be taught)."""
+        commands = self.recorded[self.keys.command]
+        return decode(Command, commands[-1][1], self.keys.command).mode if commands else ""
+
     def tick(self) -> int:
         inputs = self.recorded[self.keys.input]
         return decode(Input, inputs[-1][1], self.keys.input).tick if inputs else 0
