@@ -6,6 +6,7 @@ own thread decodes, validates and acts, so nothing blocks or calls Zenoh inside 
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import json
 import logging
 import os
@@ -21,6 +22,7 @@ from bus_schema import SchemaError, Status, encode
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 LOCAL_LISTEN = "tcp/127.0.0.1:0"
+DUMP_STACKS = signal.SIGUSR1  # a service asked this prints its threads' stacks to its log
 
 
 def add_bus_args(parser: argparse.ArgumentParser) -> None:
@@ -65,6 +67,9 @@ class StopFlag:
         self._event = threading.Event()
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: self._event.set())
+        # SIGUSR1 prints every thread's stack to stderr (the service's log), from C, so it works even
+        # while the main thread is stuck in native code: whoever gives up waiting sends it first
+        faulthandler.register(DUMP_STACKS, all_threads=True)
         supervisor = os.environ.get("DOGGED_SUPERVISED")
         if supervisor:  # no orphans: if the supervisor dies, even by SIGKILL, its services stop too
             threading.Thread(target=self._watch_parent, args=(int(supervisor),), daemon=True).start()

@@ -13,6 +13,7 @@ import zenoh
 
 from bus_schema import Status, decode
 from services.bus import zenoh_config
+from services.supervisor.process import dump_stacks_then_kill
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -53,9 +54,8 @@ def stop(*procs: subprocess.Popen, timeout: float = 10) -> list[int]:
     for p in procs:
         try:
             codes.append(p.wait(timeout))
-        except subprocess.TimeoutExpired:
-            p.kill()
-            codes.append(p.wait())
+        except subprocess.TimeoutExpired:  # its log then shows where it was stuck
+            codes.append(dump_stacks_then_kill(p))
     return codes
 
 

@@ -4,7 +4,9 @@ import os
 import signal
 import time
 
-from tests.harness import Probe, dogged, dogged_ok, free_port, wait_until
+import pytest
+
+from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, wait_until
 
 PROFILE = """
 [profile]
@@ -86,3 +88,25 @@ def test_up_ps_sigkill_restart_down(tmp_path):
     time.sleep(0.5)
     leftovers = [name for name, pid in pids.items() if alive(pid)]
     assert leftovers == [], f"orphans: {leftovers}"
+
+
+def test_a_service_that_will_not_stop_says_where_it_is_stuck_before_it_is_killed(tmp_path):
+    """StopFlag registers a stack dump on SIGUSR1; the supervisor (and the test harness) send it to a
+    service that ignores SIGTERM for too long, so its log shows the stuck line, then kill it."""
+    import subprocess
+    import sys
+
+    from services.supervisor.process import dump_stacks_then_kill
+
+    stuck = tmp_path / "stuck.py"
+    stuck.write_text("import threading\nfrom services.bus import StopFlag\nstop = StopFlag()\n"
+                     "lock = threading.Lock()\nlock.acquire()\nprint('ready', flush=True)\n"
+                     "lock.acquire()  # never returns: nothing looks at the stop flag\n")
+    proc = subprocess.Popen([sys.executable, str(stuck)], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    proc.terminate()
+    with pytest.raises(subprocess.TimeoutExpired):
+        proc.wait(1.0)
+    assert dump_stacks_then_kill(proc) == -9
+    assert f'File "{stuck}", line 7' in proc.stdout.read()

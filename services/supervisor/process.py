@@ -10,6 +10,7 @@ import time
 from collections import deque
 from pathlib import Path
 
+from services.bus import DUMP_STACKS
 from services.supervisor.profile import ServiceSpec
 
 
@@ -82,9 +83,8 @@ class ManagedProcess:
             try:
                 self.proc.wait(timeout)
             except subprocess.TimeoutExpired:
-                self._line("--- did not stop within %.0f s: SIGKILL" % timeout)
-                self.proc.kill()
-                self.proc.wait()
+                self._line("--- did not stop within %.0f s: its stacks follow in the log, then SIGKILL" % timeout)
+                dump_stacks_then_kill(self.proc)
         self.state = "stopped"
 
     def describe(self) -> dict:
@@ -92,3 +92,15 @@ class ManagedProcess:
         return {"name": self.spec.name, "box": self.spec.box, "pid": self.pid or 0, "state": self.state,
                 "restarts": self.restarts, "uptime_s": round(time.monotonic() - self.started_at, 1) if alive else 0.0,
                 "exit": self.last_exit if self.last_exit is not None else ""}
+
+
+def dump_stacks_then_kill(proc: subprocess.Popen, grace: float = 1.0) -> int:
+    """A service that did not stop: have it print where every thread is (StopFlag registers the
+    handler), then kill it. Returns its exit code."""
+    try:
+        proc.send_signal(DUMP_STACKS)
+        proc.wait(grace)
+    except (subprocess.TimeoutExpired, ProcessLookupError):
+        pass
+    proc.kill()
+    return proc.wait()
