@@ -7,8 +7,9 @@ The system as wired: LWPR (per-output LWPR where partial teachers teach, as depl
 ball seeking on the colour-blind slot layout (as deploy/ballseek.toml). Baselines measured in the
 same run: the teacher's own success on the student's episodes, and two contrasts that show why
 the wiring is what it is (whole-vector training for two teachers; the per-colour layout for the
-orange ball). Prints a table, writes the Figure 5 PNGs and every trace under --out, and ends with
-one JSON line of the figures.
+orange ball). Beside the scheduled 20 s correction, a few seeds leave it to the robot's initiative:
+the person teaches only when asked (green ears). Prints a table, writes the Figure 5 PNGs and every
+trace under --out, and ends with one JSON line of the figures.
 """
 from __future__ import annotations
 
@@ -32,15 +33,16 @@ from services.experiments.ballseek_protocol import run_ballseek, teacher_success
 from services.experiments.evaluate import first_band_drop, plot_error  # noqa: E402
 from services.platforms.aibo.platform import JOINTS_BOX  # noqa: E402
 
-FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5, "contrast_seeds": 3}
-QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 5, "orange": 2, "contrast_seeds": 1}
+FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5, "pink_after": 5, "contrast_seeds": 3}
+QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 5, "orange": 2, "pink_after": 2, "contrast_seeds": 1}
 
 
 def figure5(out: Path, name: str, trace, error, title: str, window: int, phases: dict | None = None) -> dict:
     """Save the PNG and the trace; say whether the error fell during the first teaching span."""
     arrays = trace.arrays()
     np.savez_compressed(out / f"{name}.npz", error=error, **arrays)
-    plot_error(out / f"{name}.png", arrays["t"], error, arrays["teaching"], title, smooth_window=window, phases=phases)
+    plot_error(out / f"{name}.png", arrays["t"], error, arrays["teaching"], title, smooth_window=window, phases=phases,
+               asking=arrays["mode"] == "unsure")
     start, end = first_band_drop(arrays["t"], error, arrays["teaching"])
     return {"png": f"{name}.png", "first_second": round(start, 4), "last_second": round(end, 4),
             "falls": bool(end < start)}
@@ -70,24 +72,31 @@ def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
     return {"one": one, "two": two, "plots": plots}
 
 
-def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, episodes: int) -> dict:
-    """The whole V.B protocol per seed; `episodes` = 0 runs teaching and the orange ball only."""
+def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, episodes: int,
+                    correction: str = "scheduled") -> dict:
+    """The whole V.B protocol per seed; `episodes` = 0 runs teaching and the orange ball only;
+    `correction` "answers" leaves the orange correction to the robot's requests."""
     rows, plots = [], {}
     what = "ball seeking + orange" if episodes else "orange only"
-    for seed in tqdm(seeds, desc=f"{what}, {inputs} layout", file=sys.stderr):
-        r = run_ballseek(seed, learner, n_episodes=episodes, n_orange=sizes["orange"], inputs=inputs)
+    name = f"ballseek_{inputs}" + ("" if correction == "scheduled" else f"_{correction}")
+    for seed in tqdm(seeds, desc=f"{what}, {inputs} layout, {correction} correction", file=sys.stderr):
+        r = run_ballseek(seed, learner, n_episodes=episodes, n_orange=sizes["orange"], inputs=inputs,
+                         n_pink_after=sizes["pink_after"], correction=correction)
         row = {"seed": seed, "taught_s": r.teaching_seconds, "reach_times": r.reach_times,
-               "orange_before": r.orange_before, "orange_after": r.orange_after}
+               "orange_before": r.orange_before, "orange_after": r.orange_after,
+               "pink_after": [t is not None for t in r.pink_after],
+               "correction_taught_s": r.taught_seconds("correction"),
+               "asks_pink": r.asking("pink alone", "pink"), "asks_orange_before": r.asking("orange", "orange"),
+               "asks_orange_after": r.asking("orange after", "orange")}
         if episodes:
             row["success"] = r.success
             row["teacher_success"] = teacher_success(seed, episodes, inputs=inputs)
             row["teacher_success_anywhere"] = teacher_success(seed, episodes, inputs=inputs, in_view=False)
         rows.append(row)
         if seed == seeds[0]:
-            plots[f"ballseek_{inputs}"] = figure5(out, f"ballseek_{inputs}_seed{seed}", r.trace,
-                                                  ballseek.figure5_error(r.trace, r.spaces, r.teacher),
-                                                  f"Ball seeking, {inputs} layout (seed {seed}): teacher vs student, "
-                                                  "RMS / half range", 10, r.phases)
+            plots[name] = figure5(out, f"{name}_seed{seed}", r.trace, ballseek.figure5_error(r.trace, r.spaces, r.teacher),
+                                  f"Ball seeking, {inputs} layout, {correction} correction (seed {seed}): "
+                                  "RMS error / half range", 10, r.phases)
     return {"rows": rows, "plots": plots}
 
 
@@ -97,17 +106,34 @@ def finite_or_none(value: float) -> float | None:
 
 
 def orange_figures(rows: list, tag: str) -> dict:
-    """Fraction of orange-only episodes where the student reached the orange ball, pooled over
-    seeds, and the worst seed (before correction the worst is the fewest; after, the most)."""
-    before = [np.mean(r["orange_before"]) for r in rows]
-    after = [np.mean(r["orange_after"]) for r in rows]
-    return {f"orange_before{tag}": round(float(np.mean(np.concatenate([r["orange_before"] for r in rows]))), 3),
-            f"orange_before{tag}_worst": round(float(np.min(before)), 3),
-            f"orange_after{tag}": round(float(np.mean(np.concatenate([r["orange_after"] for r in rows]))), 3),
-            f"orange_after{tag}_worst": round(float(np.max(after)), 3)}
+    """Fraction of orange-only episodes where the student reached the orange ball, and of pink
+    episodes after the correction where it reached pink, pooled over seeds, and the worst seed
+    (before correction the worst is the fewest; after, the most; pink after: the fewest)."""
+    def pooled(name):
+        return round(float(np.mean(np.concatenate([r[name] for r in rows]))), 3)
+    return {f"orange_before{tag}": pooled("orange_before"),
+            f"orange_before{tag}_worst": round(float(np.min([np.mean(r["orange_before"]) for r in rows])), 3),
+            f"orange_after{tag}": pooled("orange_after"),
+            f"orange_after{tag}_worst": round(float(np.max([np.mean(r["orange_after"]) for r in rows])), 3),
+            f"pink_after_correction{tag}": pooled("pink_after"),
+            f"pink_after_correction{tag}_worst": round(float(np.min([np.mean(r["pink_after"]) for r in rows])), 3)}
 
 
-def summarise(mirror: dict, balls: dict, contrast: dict) -> dict:
+def asking_figures(rows: list) -> dict:
+    """How often the student alone asked for teaching with a ball in view (fraction of those ticks):
+    median over seeds and the worst seed (asking with pink or after the correction: the most;
+    asking with orange before it: the fewest)."""
+    def column(name):
+        return [r[name] for r in rows if r[name] is not None]
+    figures = {}
+    for name, worst in (("asks_pink", max), ("asks_orange_before", min), ("asks_orange_after", max)):
+        values = column(name)
+        figures[name] = round(float(np.median(values)), 3) if values else None
+        figures[f"{name}_worst"] = round(float(worst(values)), 3) if values else None
+    return figures
+
+
+def summarise(mirror: dict, balls: dict, contrast: dict, answered: dict) -> dict:
     teach = [r["teach_s"] for r in mirror["one"]]
     reached = [t for t in teach if t is not None]
     two = [r["final_err"] for r in mirror["two"]]
@@ -133,9 +159,15 @@ def summarise(mirror: dict, balls: dict, contrast: dict) -> dict:
         "ballseek_teacher_success_anywhere": round(float(np.mean(anywhere)), 3),
         "ballseek_teacher_success_anywhere_worst": float(np.min(anywhere)),
         **orange_figures(balls["rows"], ""),
+        **asking_figures(balls["rows"]),
         **orange_figures(contrast["rows"], "_colours"),
         "orange_colours_seeds": len(contrast["rows"]),
-        "figure5_error_falls": {k: v["falls"] for k, v in {**mirror["plots"], **balls["plots"], **contrast["plots"]}.items()},
+        **orange_figures(answered["rows"], "_answers"),
+        "orange_answers_taught_s": float(np.median([r["correction_taught_s"] for r in answered["rows"]])),
+        "orange_answers_taught_s_worst": float(np.max([r["correction_taught_s"] for r in answered["rows"]])),
+        "orange_answers_seeds": len(answered["rows"]),
+        "figure5_error_falls": {k: v["falls"] for k, v in {**mirror["plots"], **balls["plots"], **contrast["plots"],
+                                                           **answered["plots"]}.items()},
     }
 
 
@@ -145,7 +177,8 @@ def table(s: dict, quick: bool) -> str:
 
     def row(name, median, worst, claim):
         return f"{name:62} {median:>8} {worst:>8}  {claim}"
-    pct = "{:.0%}".format
+    def pct(v):
+        return "n/a" if v is None else f"{v:.0%}"
     lines = [row("figure", "median", "worst", "paper / target"), "-" * 112,
              row("1 mirroring: teaching until held-out RMS < 0.05 rad", sec(s["mirror_teach_s_median"]),
                  sec(s["mirror_teach_s_worst"]), "< 10 s / < 5 s"),
@@ -163,6 +196,21 @@ def table(s: dict, quick: bool) -> str:
                  pct(s["orange_before_worst"]), "approaches it / most"),
              row("4 approaches orange after 20 s of correction (pooled)", pct(s["orange_after"]),
                  pct(s["orange_after_worst"]), "ignores it / <= 10%"),
+             row("4 asks for teaching, orange in view, before correction (ticks)", pct(s["asks_orange_before"]),
+                 pct(s["asks_orange_before_worst"]), "requests education (Fig. 4d)"),
+             row("4 asks for teaching, orange in view, after correction", pct(s["asks_orange_after"]),
+                 pct(s["asks_orange_after_worst"]), ""),
+             row("    asks for teaching, pink in view, student alone", pct(s["asks_pink"]),
+                 pct(s["asks_pink_worst"]), "sure of what it was taught"),
+             row("    after the correction, reaches pink (pooled)", pct(s["pink_after_correction"]),
+                 pct(s["pink_after_correction_worst"]), "responds only to pink"),
+             row(f"    correction by answering its requests ({s['orange_answers_seeds']} seeds): teaching",
+                 f"{s['orange_answers_taught_s']:.1f} s", f"{s['orange_answers_taught_s_worst']:.1f} s",
+                 "short (< 10 s) activations"),
+             row("      then approaches orange (pooled)", pct(s["orange_after_answers"]),
+                 pct(s["orange_after_answers_worst"]), ""),
+             row("      then reaches pink (pooled)", pct(s["pink_after_correction_answers"]),
+                 pct(s["pink_after_correction_answers_worst"]), ""),
              row(f"    contrast: per-colour layout, before ({s['orange_colours_seeds']} seeds)",
                  pct(s["orange_before_colours"]), pct(s["orange_before_colours_worst"]), ""),
              row("    contrast: per-colour layout, after", pct(s["orange_after_colours"]),
@@ -182,10 +230,12 @@ def main(seeds: int, quick: bool, out: Path, learner: str) -> dict:
     ball_seeds = seed_list[:1] if quick else seed_list
     balls = run_ballseeking(ball_seeds, learner, sizes, out, "slots", sizes["episodes"])
     contrast = run_ballseeking(seed_list[:sizes["contrast_seeds"]], learner, sizes, out, "colours", 0)
-    summary = summarise(mirror, balls, contrast)
+    answered = run_ballseeking(seed_list[:sizes["contrast_seeds"]], learner, sizes, out, "slots", 0, "answers")
+    summary = summarise(mirror, balls, contrast, answered)
     summary["wall_s"] = round(time.perf_counter() - started, 1)
     (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "ballseek": balls,
-                                                  "orange_colours": contrast}, indent=1, default=float))
+                                                  "orange_colours": contrast, "orange_answers": answered},
+                                                 indent=1, default=float))
     print(table(summary, quick))
     print(f"plots and data: {out}")
     return summary

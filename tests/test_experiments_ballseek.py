@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from bus_schema.spaces import Spaces
-from services.experiments.ballseek import ball_spot
+from services.experiments.ballseek import ball_in_view, ball_spot
 from services.platforms.aibo.arena_layout import EYE_HEIGHT, arena_layout, in_sight
 from services.experiments.ballseek_protocol import schedule_end
 from services.perception.blobs import BlobDetector
@@ -40,6 +40,15 @@ def test_slot_teacher_seeks_pink_and_ignores_orange_like_the_colour_teacher():
     for blobs in (PINK + NONE, NONE + ORANGE, PINK + ORANGE, NONE + NONE):
         blobs = np.array(blobs)
         np.testing.assert_array_equal(slot_teacher(slots.encode(blobs))[0], colour_teacher(blobs)[0])
+
+
+def test_ball_in_view_reads_either_layout():
+    slots, rows = BlobSlots(), [PINK + NONE, NONE + ORANGE, PINK + ORANGE, NONE + NONE]
+    pink, orange = [True, False, True, False], [False, True, True, False]
+    encoded = np.array([slots.encode(np.array(r)) for r in rows])
+    for layout, xs in (("colours", np.array(rows)), ("slots", encoded)):
+        assert ball_in_view(xs, layout, "pink").tolist() == pink
+        assert ball_in_view(xs, layout, "orange").tolist() == orange
 
 
 def test_ball_spots_lie_in_the_ring_around_the_robot_pose():

@@ -40,6 +40,20 @@ def test_teaching_bands_and_the_drop_within_the_first():
         evaluate.first_band_drop(t, error, np.zeros(100, dtype=bool))
 
 
+def test_asking_rate_counts_the_students_ticks_only():
+    modes = np.array(["teacher", "unsure", "student", "unsure", "teacher"])
+    assert evaluate.asking_rate(modes) == pytest.approx(2 / 3)
+    assert evaluate.asking_rate(modes, [False, False, True, True, True]) == pytest.approx(1 / 2)
+    assert evaluate.asking_rate(modes, [True, False, False, False, True]) is None  # it never drove
+
+
+def test_plot_marks_where_the_robot_asks(tmp_path):
+    t = np.arange(50) / 10.0
+    plain = evaluate.plot_error(tmp_path / "plain.png", t, np.abs(np.sin(t)), t < 2, "synthetic")
+    asking = evaluate.plot_error(tmp_path / "asking.png", t, np.abs(np.sin(t)), t < 2, "synthetic", asking=t > 3)
+    assert asking.read_bytes() != plain.read_bytes()
+
+
 def test_moving_average_is_trailing():
     np.testing.assert_allclose(evaluate.moving_average(np.array([2.0, 4.0, 6.0, 8.0]), 2), [2.0, 3.0, 5.0, 7.0])
 

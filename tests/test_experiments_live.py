@@ -29,12 +29,16 @@ def test_mirroring_one_teacher_live(tmp_path):
 
 def test_ballseek_live_student_reaches_pink_then_learns_to_ignore_orange(tmp_path):
     """Paper V.B as processes: taught with pink only, the student reaches pink on its own, chases
-    the orange ball it never saw taught (colour-blind slots), and ignores it after a correction."""
+    the orange ball it never saw taught (colour-blind slots) while asking to be taught (Fig. 4d),
+    and ignores it, sure of itself, after a correction."""
     summary = run_ballseek_live(tmp_path, endpoint(), episodes=3, orange_episodes=3, log=print)
     print(summary)
     assert summary["supervisor_exit"] == 0
     assert summary["successes"] >= 2
     assert summary["orange_before"] >= 2 and summary["orange_after"] == 0
+    # green ears: with orange in view the untaught student asks, with pink or once corrected it does not
+    assert summary["asks_orange_before"] > 0.5
+    assert summary["asks_student"] < 0.1 and summary["asks_orange_after"] < 0.1
     assert (tmp_path / "figure5.png").stat().st_size > 10_000
     data = np.load(tmp_path / "run.npz")
     first_teach = np.flatnonzero(data["teaching"])[:25]

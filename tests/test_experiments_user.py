@@ -48,14 +48,34 @@ def test_probability_out_of_range_is_refused():
 def test_in_the_loop_an_untaught_robot_asks_and_the_user_answers():
     """Ball seeking in one process: the lesson is scheduled at 10 s. Untaught, the robot is unsure
     from its first tick; a user who never answers leaves it asking until 10 s, one who always
-    answers teaches at once, for answer_seconds (2 s)."""
+    answers teaches at once, for answer_seconds (2 s), and again whenever it asks."""
     from services.experiments.ballseek_protocol import run_ballseek
 
     def run(p):
         r = run_ballseek(0, schedule=((10.0, 15.0),), teach_seconds=5.0, answer_probability=p, n_episodes=0,
-                         n_orange=0, correction_seconds=0.0)
+                         n_orange=0, correction_seconds=0.0, n_pink_after=0)
         a = r.trace.arrays()
-        return r.teaching_seconds, int(np.sum(a["mode"] == "unsure")), float(a["t"][np.argmax(a["teaching"])])
+        asked = a["mode"] == "unsure"
+        return (r.teaching_seconds, int(np.sum(asked)), float(a["t"][np.argmax(a["teaching"])]),
+                a["x"][asked][:, 0].tolist())  # was a ball in view when it asked
 
-    assert run(0.0) == (5.0, 50, 10.0)   # 10 s unsure at 5 Hz, taught only on schedule
-    assert run(1.0) == (7.0, 1, 0.2)     # asked once, answered from the next tick for 2 s
+    assert run(0.0) == (5.0, 50, 10.0, [0.0] * 50)  # 10 s unsure at 5 Hz, taught only on schedule
+    # asked at once, answered from the next tick for 2 s (spent searching: no ball in view); asked
+    # again the moment the ball first came into view, answered for 2 s more
+    assert run(1.0) == (9.0, 2, 0.2, [0.0, 1.0])
+
+
+def test_asked_about_the_orange_ball_a_person_who_answers_corrects_it():
+    """Paper V.B and Fig. 4d, in one process: taught with pink only, the student asks for teaching
+    whenever the orange ball is in view (and not with pink); a person who teaches only when asked
+    corrects it in a few seconds, after which it ignores orange and still seeks pink."""
+    from services.experiments.ballseek_protocol import run_ballseek
+
+    r = run_ballseek(0, n_episodes=2, n_orange=2, correction="answers", n_pink_after=2)
+    print(f"asks: pink {r.asking('pink alone', 'pink')}, orange {r.asking('orange', 'orange')}; "
+          f"answered {r.taught_seconds('correction')} s; after: orange {r.orange_after}, pink {r.pink_after}")
+    assert r.asking("pink alone", "pink") < 0.1 and r.asking("orange", "orange") > 0.5
+    assert all(r.orange_before)
+    assert 0.0 < r.taught_seconds("correction") <= 10.0
+    assert not any(r.orange_after) and all(t is not None for t in r.pink_after)
+    assert r.asking("orange after", "orange") < 0.1

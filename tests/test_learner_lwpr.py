@@ -63,3 +63,41 @@ def test_long_stream_stays_stable():
     prediction = model.predict_many(test).y
     assert np.abs(prediction).max() < 2.0  # the cross lies in [0, 1.25]
     assert nmse(prediction, cross(test[:, :2])) < 0.5
+
+
+def _taught_with_one_input_constant(**params):
+    """x0, x1 uniform in [-1, 1], x2 (a colour flag, say) always 0; y = x0 + x1."""
+    xs = np.random.default_rng(0).uniform(-1, 1, (600, 3))
+    xs[:, 2] = 0.0
+    model = make_learner("lwpr", 3, 1, **params)
+    model.learn_many(xs, xs[:, :2].sum(1, keepdims=True))
+    return model
+
+
+def test_confidence_falls_where_an_input_never_varied():
+    """Paper Fig. 4d: in a new situation the student asks for teaching. An input that never
+    varied leaves the metric wide along it, so only the fields' experienced spread tells."""
+    model = _taught_with_one_input_constant()
+    familiar, novel = model.predict_one([0.3, -0.2, 0.0]), model.predict_one([0.3, -0.2, 1.0])
+    assert familiar.confidence > 0.8
+    assert novel.confidence < 0.25
+    assert np.allclose(novel.y, _taught_with_one_input_constant(novelty_scale=0.0).predict_one([0.3, -0.2, 1.0]).y)
+
+
+def test_without_novelty_scale_the_activation_alone_misses_it():
+    model = _taught_with_one_input_constant(novelty_scale=0.0)
+    assert model.predict_one([0.3, -0.2, 1.0]).confidence > 0.5
+
+
+def test_snapshot_from_before_novelty_scale_restores_with_its_default():
+    import pickle
+
+    model = _taught_with_one_input_constant()
+    state = model.__getstate__()
+    del state["novelty_scale"]
+    state["_hp"] = state["_hp"][:20]  # the kernels' vector before novelty_scale
+    old = object.__new__(type(model))
+    old.__setstate__(pickle.loads(pickle.dumps(state)))
+    assert old.novelty_scale == 0.25 and old._hp.shape == model._hp.shape
+    probe = [0.3, -0.2, 1.0]
+    assert old.predict_one(probe).confidence == model.predict_one(probe).confidence

@@ -13,6 +13,10 @@ def free_endpoint() -> str:
         return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
+def percent(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.0%}"
+
+
 def cli(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="dogged demo", description=__doc__.splitlines()[0])
     parser.add_argument("--learner", default="lwpr")
@@ -36,6 +40,10 @@ def cli(argv=None) -> int:
     if args.orange_episodes:
         print(f"  the orange ball, never taught: approached in {s['orange_before']} of {s['orange_episodes']} "
               f"episodes; after a 20 s correction, in {s['orange_after']} of {s['orange_episodes']}")
+    if args.orange_episodes:
+        print(f"  asked for teaching (green ears) with the orange ball in view: {percent(s.get('asks_orange_before'))} "
+              f"of the student's ticks before the correction, {percent(s.get('asks_orange_after'))} after; "
+              f"with pink in view: {percent(s.get('asks_student'))}")
     errors = f"{s['error_teaching']:.3f} while taught, {s['error_student']:.3f} alone with pink"
     if args.orange_episodes:
         errors += f", {s['error_orange_before']:.3f} with orange before correction, {s['error_orange_after']:.3f} after"

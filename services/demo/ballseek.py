@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from services.demo.live import LiveRun
-from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, ball_spot
+from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, ball_in_view, ball_spot
 from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE,
                                                    arena_seed, phase_rng)
-from services.experiments.evaluate import error_over_time, plot_error, teacher_outputs
+from services.experiments.evaluate import asking_rate, error_over_time, plot_error, teacher_outputs
 from services.experiments.judges import REACH_RADIUS, nose_distance
 from services.experiments.user import ScriptedUser
 from services.perception.blobs import BlobDetector
@@ -53,6 +53,7 @@ box = "arbitrator"
 
 PHASE_LABELS = {"taught": "taught", "student": "pink alone", "orange_before": "orange, untaught",
                 "correction": "correction", "orange_after": "orange after"}
+PHASE_BALL = {"student": "pink", "orange_before": "orange", "orange_after": "orange"}  # the ball each puts down
 
 
 def episode(run: LiveRun, arena: int, balls: dict, seconds: float, rate: float, target: str = "pink",
@@ -82,7 +83,8 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
             phases: dict | None = None) -> dict:
     """Teacher run on every input the student saw; error against the student's answer over time.
     Returns the mean error while taught, and on the student's own ticks of each of `phases`
-    (name -> (first tick, end tick)) as error_<name>."""
+    (name -> (first tick, end tick)) as error_<name>; for phases with a ball, asks_<name>: the
+    fraction of the student's ticks with that ball in view in which it asked to be taught."""
     inputs = {m.tick: m.x for m in run.inputs()}
     student = {p.tick: p.y for p in run.learner_proposals()}
     modes = {c.tick: c.mode for c in run.commands()}
@@ -94,20 +96,25 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
     student_y = np.array([student[t] for t in ticks])
     scale = (np.array(MOVE_BOX.high) - np.array(MOVE_BOX.low)) / 2
     error = error_over_time(teacher_y, student_y, scale=scale)
-    teaching = np.array([modes[t] == "teacher" for t in ticks])
+    mode = np.array([modes[t] for t in ticks])
+    teaching = mode == "teacher"
     t = (np.array(ticks, dtype=float) - first_tick) / rate
-    np.savez(out / "run.npz", t=t, x=x, student_y=student_y, teacher_y=teacher_y, error=error, teaching=teaching)
+    np.savez(out / "run.npz", t=t, x=x, student_y=student_y, teacher_y=teacher_y, error=error, teaching=teaching,
+             mode=mode)
     spans = {PHASE_LABELS.get(name, name): ((start - first_tick) / rate, (min(end, ticks[-1]) - first_tick) / rate)
              for name, (start, end) in (phases or {}).items()} if ticks else {}
     plot_error(out / "figure5.png", t, error, teaching, "Ball seeking: teacher vs student (Figure 5)",
-               ylabel="RMS error / half range", smooth_window=5, phases=spans)
+               ylabel="RMS error / half range", smooth_window=5, phases=spans, asking=mode == "unsure")
     ticks = np.array(ticks)
 
     def mean(chosen):
         return float(np.mean(error[chosen])) if chosen.any() else None
     figures = {"ticks": len(ticks), "error_teaching": mean(teaching)}
     for name, (start, end) in (phases or {"student": (first_tick, np.inf)}).items():
-        figures[f"error_{name}"] = mean(~teaching & (ticks >= start) & (ticks < end))
+        in_phase = (ticks >= start) & (ticks < end)
+        figures[f"error_{name}"] = mean(~teaching & in_phase)
+        if name in PHASE_BALL and len(ticks):
+            figures[f"asks_{name}"] = asking_rate(mode, in_phase & ball_in_view(x, layout, PHASE_BALL[name]))
     return figures
 
 

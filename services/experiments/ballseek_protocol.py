@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, BallWorld, ball_spot
+from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, BallWorld, ball_in_view, ball_spot
+from services.experiments.evaluate import asking_rate
 from services.experiments.loop import Trace
 from services.experiments.user import ScriptedUser
 from services.learners import make_learner
@@ -16,7 +17,7 @@ from services.learners import make_learner
 TEACHING_SCHEDULE = ((0.0, 30.0), (40.0, 60.0), (70.0, 80.0))  # 60 s of teaching over 80 s, as in Figure 5
 TEACHING_EPISODE_SECONDS = 15.0  # the person puts the ball elsewhere after this, or once reached
 ORANGE_FAR = 1.0  # orange episodes are 20 s, so the ball is put where the teacher reaches it in time
-PHASES = {"teach": 1, "episodes": 2, "orange_before": 3, "correct": 4, "orange_after": 5}
+PHASES = {"teach": 1, "episodes": 2, "orange_before": 3, "correct": 4, "orange_after": 5, "pink_after": 6}
 
 
 def phase_rng(seed: int, phase: str) -> np.random.Generator:
@@ -70,12 +71,26 @@ def correct(world: BallWorld, learner, teacher, seconds: float, trace: Trace, se
     world.run(seconds, learner, teacher, None, trace, on_tick=put_orange_ahead)
 
 
+def answer_requests(world: BallWorld, learner, teacher, count: int, seconds: float, trace: Trace, seed: int) -> None:
+    """The correction left to the robot's initiative: `count` orange-only episodes in which the person
+    switches the teacher on for 2 s whenever the robot asks (green ears), and at no other time."""
+    rng, user = phase_rng(seed, "correct"), ScriptedUser(answer_probability=1.0, seed=seed)
+    for _ in range(count):
+        arena = arena_seed(rng)
+        world.start(arena, {"orange": ball_spot(rng, NEAR, ORANGE_FAR, arena=arena)})
+        world.run(seconds, learner, teacher, user, trace, target="orange")
+
+
+CORRECTIONS = ("scheduled", "answers")
+
+
 @dataclass
 class BallSeekResult:
     teaching_seconds: float
     reach_times: list            # per student episode (pink): seconds to reach, or None
     orange_before: list          # per orange-only episode before correction: approached?
     orange_after: list
+    pink_after: list             # per pink episode after the correction: seconds to reach, or None
     trace: Trace = field(repr=False)
     spaces: object = field(repr=False)
     teacher: object = field(repr=False)
@@ -85,13 +100,37 @@ class BallSeekResult:
     def success(self) -> float:
         return float(np.mean([r is not None for r in self.reach_times]))
 
+    def asking(self, phase: str, colour: str) -> float | None:
+        """Of the student's ticks in `phase` with the `colour` ball in view, the fraction in which
+        it asked for teaching (paper Fig. 4d); None if there were none."""
+        if phase not in self.phases:
+            return None
+        arrays, (start, stop) = self.trace.arrays(), self.phases[phase]
+        chosen = (arrays["t"] >= start) & (arrays["t"] < stop)
+        chosen &= ball_in_view(arrays["x"], self.spaces.extra["inputs"], colour)
+        return asking_rate(arrays["mode"], chosen)
+
+    def taught_seconds(self, phase: str) -> float:
+        """Seconds of teaching given in `phase` (0 if it did not happen)."""
+        if phase not in self.phases:
+            return 0.0
+        arrays, (start, stop) = self.trace.arrays(), self.phases[phase]
+        rate = self.spaces.extra["rate_hz"]
+        return float(np.sum(arrays["teaching"] & (arrays["t"] >= start) & (arrays["t"] < stop))) / rate
+
 
 def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
                  answer_probability: float = 0.0, n_episodes: int = 20, episode_seconds: float = 30.0,
-                 n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0,
-                 rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", **hyper_parameters) -> BallSeekResult:
+                 n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0, n_pink_after: int = 5,
+                 rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", correction: str = "scheduled",
+                 **hyper_parameters) -> BallSeekResult:
     """The whole V.B protocol for one seed. Teaching lasts until the schedule's teaching time
-    (`teach_seconds` of teacher activation at most) has been given."""
+    (`teach_seconds` of teacher activation at most) has been given. The orange correction is
+    "scheduled" (`correction_seconds` with the ball put in front of the robot) or "answers" (as many
+    orange episodes as before it, the person answering every request for teaching). Then
+    `n_pink_after` pink episodes: the corrected student must still seek pink."""
+    if correction not in CORRECTIONS:
+        raise ValueError(f"correction must be one of {CORRECTIONS}, got {correction!r}")
     world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
     teacher = world.make_teacher()
     learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed, **hyper_parameters)
@@ -110,13 +149,18 @@ def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 6
                                                      "pink", trace))
         before = phase("orange", lambda: episodes(world, learner, seed, "orange_before", n_orange, orange_seconds,
                                                   "orange", trace, far=ORANGE_FAR))
-        phase("correction", lambda: correct(world, learner, teacher, correction_seconds, trace, seed))
+        if correction == "scheduled":
+            phase("correction", lambda: correct(world, learner, teacher, correction_seconds, trace, seed))
+        else:
+            phase("correction", lambda: answer_requests(world, learner, teacher, n_orange, orange_seconds, trace, seed))
         after = phase("orange after", lambda: episodes(world, learner, seed, "orange_after", n_orange, orange_seconds,
                                                        "orange", trace, far=ORANGE_FAR))
+        pink_after = phase("pink after", lambda: episodes(world, learner, seed, "pink_after", n_pink_after,
+                                                          episode_seconds, "pink", trace))
     finally:
         world.close()
-    return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], trace,
-                          world.spaces, teacher, {k: v for k, v in phases.items() if v[1] > v[0]})
+    return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], pink_after,
+                          trace, world.spaces, teacher, {k: v for k, v in phases.items() if v[1] > v[0]})
 
 
 def schedule_end(schedule, teach_seconds: float) -> float:

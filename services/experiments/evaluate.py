@@ -33,6 +33,16 @@ def error_over_time(teacher_y: np.ndarray, student_y: np.ndarray, outputs=None, 
     return np.sqrt(np.mean(diff ** 2, axis=1))
 
 
+def asking_rate(modes, chosen=None) -> float | None:
+    """Of the ticks the student drove (those `chosen`, default all), the fraction in which it asked
+    for teaching (mode 'unsure', green ears); None if it drove none of them."""
+    modes = np.asarray(modes)
+    driving = modes != "teacher"
+    if chosen is not None:
+        driving &= np.asarray(chosen, dtype=bool)
+    return float(np.mean(modes[driving] == "unsure")) if driving.any() else None
+
+
 def teaching_bands(t: np.ndarray, teaching: np.ndarray) -> list[tuple[float, float]]:
     """(start, stop) times of each run of ticks with the teacher on; stop is the next tick's time."""
     t, teaching = np.asarray(t, dtype=np.float64), np.asarray(teaching, dtype=bool)
@@ -67,9 +77,11 @@ def first_band_drop(t: np.ndarray, error: np.ndarray, teaching: np.ndarray, seco
 
 
 def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarray, title: str,
-               ylabel: str = "RMS error", smooth_window: int = 1, phases: dict | None = None) -> Path:
+               ylabel: str = "RMS error", smooth_window: int = 1, phases: dict | None = None,
+               asking: np.ndarray | None = None) -> Path:
     """Figure 5: error against time, the teacher's active spans shaded; `phases` (label -> (start,
-    stop) seconds) are marked and named along the top. Saves a PNG and returns its path."""
+    stop) seconds) are marked and named along the top; `asking` (per tick: the robot asked to be
+    taught) is a green strip along the bottom. Saves a PNG and returns its path."""
     import matplotlib
 
     matplotlib.use("Agg")  # headless: no display on CI or the benchmark machine
@@ -78,6 +90,9 @@ def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarra
     fig, ax = plt.subplots(figsize=(8, 3.2), dpi=110)
     for i, (start, stop) in enumerate(teaching_bands(t, teaching)):
         ax.axvspan(start, stop, color="tab:red", alpha=0.15, lw=0, label="teacher active" if i == 0 else None)
+    for i, (start, stop) in enumerate(teaching_bands(t, asking) if asking is not None else []):
+        ax.axvspan(start, stop, ymax=0.06, color="tab:green", alpha=0.6, lw=0,
+                   label="robot asks (unsure)" if i == 0 else None)
     ax.plot(t, error, color="0.6", lw=0.6, label="error (per tick)")
     if smooth_window > 1:
         ax.plot(t, moving_average(error, smooth_window), color="tab:blue", lw=1.4, label=f"mean of {smooth_window} ticks")

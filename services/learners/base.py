@@ -152,6 +152,13 @@ class Learner:
             raise TypeError(f"snapshot holds a {type(model).__name__}, not a {cls.__name__}")
         return model
 
+    def __setstate__(self, state: dict) -> None:
+        # a snapshot taken before a hyper-parameter existed gets its default
+        self.__dict__.update(state)
+        for name, parameter in inspect.signature(type(self).__init__).parameters.items():
+            if name not in self.__dict__ and parameter.default is not inspect.Parameter.empty:
+                setattr(self, name, parameter.default)
+
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}(n_in={self.n_in}, n_out={self.n_out}, seed={self.seed}, {params})"

@@ -35,7 +35,8 @@ def _kernels():
 
 
 class LWPR(Learner):
-    """LWPR; confidence is the strongest receptive field's activation (weakest output)."""
+    """LWPR; confidence is the strongest receptive field's activation (weakest output),
+    lowered where the input lies beyond what that field has learned from (novelty_scale)."""
 
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *,
                  init_D: float | None = None, init_alpha: float = 250.0,
@@ -46,7 +47,7 @@ class LWPR(Learner):
                  init_reg: int = 2, max_reg: int | None = None, penalty: float = 1e-6,
                  diag_only: bool = True, update_D: bool = True, meta: bool = True,
                  meta_rate: float = 250.0, max_rfs: int = 200, exact_fit: bool = True,
-                 norm_in: float | tuple[float, ...] = 1.0):
+                 norm_in: float | tuple[float, ...] = 1.0, novelty_scale: float = 0.25):
         super().__init__(n_in, n_out, seed)
         self.init_D = init_D
         self.init_alpha = init_alpha
@@ -61,6 +62,7 @@ class LWPR(Learner):
         self.max_rfs = max_rfs
         self.exact_fit = exact_fit
         self.norm_in = norm_in
+        self.novelty_scale = novelty_scale
         self._input_scale = self._input_scale_from_norm()
         self._hp = self._hyper_parameter_vector()
         self._reset()
@@ -98,6 +100,8 @@ class LWPR(Learner):
         hp[layout.HP_UPDATE_D] = float(self.update_D)
         hp[layout.HP_META] = float(self.meta)
         hp[layout.HP_EXACT_FIT] = float(self.exact_fit)
+        # 0 turns it off: confidence is then the activation alone
+        hp[layout.HP_NOVELTY_SCALE] = check_positive("novelty_scale", self.novelty_scale, strictly=False)
         return hp
 
     def _input_scale_from_norm(self) -> np.ndarray | None:
@@ -203,3 +207,7 @@ class LWPR(Learner):
         state["_rfs"] = self._rfs[:, :used].copy()
         state["_nreg"] = self._nreg[:, :used].copy()
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(state)
+        self._hp = self._hyper_parameter_vector()  # the kernels' layout of this version

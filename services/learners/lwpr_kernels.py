@@ -18,8 +18,8 @@ import numpy as np
 from .lwpr_layout import (
     FAST_MATH,
     BETA, BETA0, CENTRE, HP_DIAG_ONLY, HP_EXACT_FIT, LAMBDA, HP_INIT_REG, HP_MAX_RFS, HP_UPDATE_D, HP_W_CUTOFF,
-    HP_W_GEN, HP_W_PRUNE, MEAN_X, N_DATA, P_LOAD, SS_S2, SUM_E_CV2, SUM_W, U_DIR,
-    init_rf, mat, rls_theta, squared_distance, trace_d, vec,
+    HP_NOVELTY_SCALE, HP_W_GEN, HP_W_PRUNE, MEAN_X, N_DATA, P_LOAD, SS_S2, SUM_E_CV2, SUM_W, U_DIR,
+    beyond_experience, init_rf, mat, rls_theta, squared_distance, trace_d, vec,
 )
 from .lwpr_metric import update_metric
 from .lwpr_receptive_field import (
@@ -173,9 +173,11 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     forgetting), as in the reference library; while any trusted field is active, young
     ones are left out, because a field created a moment ago fits its few samples and
     nothing else. Support (the confidence) is the strongest activation, each discounted
-    by its field's maturity min(1, samples / 2n)."""
+    by its field's maturity min(1, samples / 2n) and, with a novelty scale, by how far x
+    lies beyond the inputs the field has learned from (lwpr_layout.beyond_experience)."""
     n = x.shape[0]
     diag_only, exact = hp[HP_DIAG_ONLY] != 0.0, hp[HP_EXACT_FIT] != 0.0
+    novelty_scale = hp[HP_NOVELTY_SCALE]
     q_cut = -2.0 * math.log(hp[HP_W_CUTOFF]) if hp[HP_W_CUTOFF] > 0.0 else math.inf
     trusted_at = 2.0 * n
     sw, swy, swyy, swv = 0.0, 0.0, 0.0, 0.0  # over all active fields
@@ -185,7 +187,10 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
         st = rfs[k, j]
         q = squared_distance(st, n, x, diag_only)
         maturity = min(1.0, vec(st, N_DATA, n)[0] / trusted_at)
-        support = max(support, math.exp(-0.5 * q) * maturity)
+        field_support = math.exp(-0.5 * q) * maturity
+        if novelty_scale > 0.0 and field_support > support:  # novelty only lowers it: skip the hopeless
+            field_support *= math.exp(-0.5 * beyond_experience(st, n, x, novelty_scale))
+        support = max(support, field_support)
         if q < q_cut:
             w = math.exp(-0.5 * q)
             yp, var = rf_prediction(st, n, nreg[k, j], x, xres, exact)

@@ -35,8 +35,11 @@ N_MATRICES = 9
 (HP_W_GEN, HP_W_PRUNE, HP_W_CUTOFF, HP_INIT_LAMBDA, HP_FINAL_LAMBDA, HP_TAU_LAMBDA,
  HP_INIT_S2, HP_ADD_THRESHOLD, HP_PENALTY, HP_META_RATE, HP_DIAG_ONLY, HP_META,
  HP_UPDATE_D, HP_INIT_D, HP_INIT_ALPHA, HP_MAX_REG, HP_ADD_MIN_DATA, HP_INIT_REG,
- HP_MAX_RFS, HP_EXACT_FIT) = range(20)
-N_HP = 20
+ HP_MAX_RFS, HP_EXACT_FIT, HP_NOVELTY_SCALE) = range(21)
+N_HP = 21
+
+# a field has seen an input's values within this many standard deviations of their mean
+EXPERIENCED_SDS = 3.0
 
 
 # initial inverse covariance of the exact local fit: a ridge of 1e-8, small enough that nearly
@@ -122,6 +125,23 @@ def squared_distance(st, n, x, diag_only):
             row += d[i * n + j] * (x[j] - c[j])
         q += dxi * row
     return q
+
+
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def beyond_experience(st, n, x, scale):
+    """How far x lies outside the inputs this field has learned from, squared, in units of
+    `scale`: per input, the distance beyond mean +- EXPERIENCED_SDS sd (forgetting, weighted).
+
+    The activation alone cannot tell novelty along an input that never varied: the metric
+    only narrows along inputs that matter to the output, so a value never seen there (an
+    orange ball, after teaching with pink only) barely lowers it."""
+    mean, var = vec(st, MEAN_X, n), vec(st, VAR_X, n)
+    q = 0.0
+    for i in range(n):
+        excess = abs(x[i] - mean[i]) - EXPERIENCED_SDS * math.sqrt(var[i])
+        if excess > 0.0:
+            q += excess * excess
+    return q / (scale * scale)
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
