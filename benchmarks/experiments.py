@@ -34,7 +34,7 @@ from services.experiments.evaluate import first_band_drop, plot_error  # noqa: E
 from services.platforms.aibo.platform import JOINTS_BOX  # noqa: E402
 
 FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5, "pink_after": 5, "contrast_seeds": 3}
-QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 5, "orange": 2, "pink_after": 2, "contrast_seeds": 1}
+QUICK = {"max_teach": 6.0, "seconds_each": 6.0, "episodes": 3, "orange": 2, "pink_after": 1, "contrast_seeds": 1}
 
 
 def figure5(out: Path, name: str, trace, error, title: str, window: int, phases: dict | None = None) -> dict:
@@ -92,6 +92,7 @@ def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, ep
             row["success"] = r.success
             row["teacher_success"] = teacher_success(seed, episodes, inputs=inputs)
             row["teacher_success_anywhere"] = teacher_success(seed, episodes, inputs=inputs, in_view=False)
+            row["teacher_pink_after"] = teacher_success(seed, sizes["pink_after"], inputs=inputs, phase="pink_after")
         rows.append(row)
         if seed == seeds[0]:
             plots[name] = figure5(out, f"{name}_seed{seed}", r.trace, ballseek.figure5_error(r.trace, r.spaces, r.teacher),
@@ -160,6 +161,7 @@ def summarise(mirror: dict, balls: dict, contrast: dict, answered: dict) -> dict
         "ballseek_teacher_success_anywhere_worst": float(np.min(anywhere)),
         **orange_figures(balls["rows"], ""),
         **asking_figures(balls["rows"]),
+        "pink_after_correction_teacher": round(float(np.mean([r["teacher_pink_after"] for r in balls["rows"]])), 3),
         **orange_figures(contrast["rows"], "_colours"),
         "orange_colours_seeds": len(contrast["rows"]),
         **orange_figures(answered["rows"], "_answers"),
@@ -204,6 +206,7 @@ def table(s: dict, quick: bool) -> str:
                  pct(s["asks_pink_worst"]), "sure of what it was taught"),
              row("    after the correction, reaches pink (pooled)", pct(s["pink_after_correction"]),
                  pct(s["pink_after_correction_worst"]), "responds only to pink"),
+             row("      baseline: the teacher on the same episodes", pct(s["pink_after_correction_teacher"]), "", ""),
              row(f"    correction by answering its requests ({s['orange_answers_seeds']} seeds): teaching",
                  f"{s['orange_answers_taught_s']:.1f} s", f"{s['orange_answers_taught_s_worst']:.1f} s",
                  "short (< 10 s) activations"),

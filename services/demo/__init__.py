@@ -40,7 +40,6 @@ def cli(argv=None) -> int:
     if args.orange_episodes:
         print(f"  the orange ball, never taught: approached in {s['orange_before']} of {s['orange_episodes']} "
               f"episodes; after a 20 s correction, in {s['orange_after']} of {s['orange_episodes']}")
-    if args.orange_episodes:
         print(f"  asked for teaching (green ears) with the orange ball in view: {percent(s.get('asks_orange_before'))} "
               f"of the student's ticks before the correction, {percent(s.get('asks_orange_after'))} after; "
               f"with pink in view: {percent(s.get('asks_student'))}")

@@ -174,14 +174,16 @@ def schedule_end(schedule, teach_seconds: float) -> float:
 
 
 def teacher_success(seed: int, n_episodes: int = 20, episode_seconds: float = 30.0,
-                    rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", in_view: bool = True) -> float:
-    """The teacher's own score on the student's episodes (same seed, same arenas and spots): the
-    baseline the student is measured against. in_view=False: on spots behind the clutter too."""
+                    rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", in_view: bool = True,
+                    phase: str = "episodes") -> float:
+    """The teacher's own score on the student's pink episodes of `phase` ("episodes", or "pink_after"
+    the correction; same seed, same arenas and spots): the baseline the student is measured
+    against. in_view=False: on spots behind the clutter too."""
     world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
     try:
         teacher = world.make_teacher()
         unused = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)  # never asked: the teacher is always on
-        reach = episodes(world, unused, seed, "episodes", n_episodes, episode_seconds, "pink", teacher=teacher,
+        reach = episodes(world, unused, seed, phase, n_episodes, episode_seconds, "pink", teacher=teacher,
                          in_view=in_view)
     finally:
         world.close()
