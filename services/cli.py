@@ -1,5 +1,5 @@
 """`dogged`: run a box, bring a profile up or down, list, read logs, swap a learner, switch teachers,
-reset the robot's arena."""
+watch the robot's mode, reset the robot's arena."""
 from __future__ import annotations
 
 import argparse
@@ -49,6 +49,11 @@ def main(argv: list[str] | None = None) -> int:
     teach.add_argument("switch", choices=["on", "off"])
     teach.add_argument("--teacher", default="", help="teacher name (default: every teacher)")
     teach.add_argument("--instance", default="main")
+    watch = sub.add_parser("watch", help="the robot's ears in a terminal: a line each time the mode changes")
+    watch.add_argument("--instance", default="main")
+    watch.add_argument("--settle", type=float, default=0.2, help="seconds a mode must hold before it is shown")
+    watch.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: until Ctrl-C)")
+    watch.add_argument("--bell", action="store_true", help="ring the terminal bell when the robot asks to be taught")
     arena = sub.add_parser("arena", help="rebuild the robot's arena and put balls down: dogged arena --ball pink=0.8,0.2")
     arena.add_argument("--seed", type=int, default=0, help="arena seed: clutter and where the robot starts (default 0)")
     arena.add_argument("--ball", action="append", metavar="NAME=X,Y|NAME=off",

@@ -1,9 +1,13 @@
 """A teacher is switched on, then off, and the student reproduces the taught mapping (real processes)."""
+import subprocess
+import sys
+import time
+
 import numpy as np
 import pytest
 
 from bus_schema import Command, Input, decode
-from tests.harness import Probe, dogged, dogged_ok, stop
+from tests.harness import REPO, Probe, dogged, dogged_ok, stop
 
 
 def sine_teacher(x):  # services.teachers.functions.SineTeacher with its defaults, dims=2
@@ -46,3 +50,34 @@ def test_teach_on_then_off_student_reproduces(router, tmp_path, learner):
     finally:
         probe.close()
         assert stop(*procs) == [0, 0, 0, 0]
+
+
+def test_watch_shows_the_robots_mode_as_a_person_switches_teaching(router, tmp_path):
+    """`dogged watch` is the robot's ears in a terminal: untaught it asks (green), taught it is
+    red, and each change is one line; a malformed command is rejected, not shown."""
+    connect = ["--connect", router]
+    procs = [dogged("run", "platform", "--platform", "point", "--param", "dims=2", "--rate", "100", *connect,
+                    log=tmp_path / "platform.log"),
+             dogged("run", "demonstrator", "--teacher", "sine", *connect, log=tmp_path / "teacher.log"),
+             dogged("run", "learner", "--learner", "lwpr", *connect, log=tmp_path / "learner.log"),
+             dogged("run", "arbitrator", *connect, log=tmp_path / "arbitrator.log")]
+    probe = Probe(router)
+    watcher = None
+    try:
+        probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "commands") > 50, 60, "the loop to run")
+        watcher = subprocess.Popen([sys.executable, "-m", "services.cli", "--connect", router, "watch", "--seconds", "8"],
+                                   cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(2.5)
+        probe.put("dl/main/command", b"\x81\xa1v\x01")  # a map with a version and nothing else
+        assert dogged_ok("teach", "on", endpoint=router).returncode == 0
+        time.sleep(2.0)
+        out, err = watcher.communicate(timeout=30)
+    finally:
+        probe.close()
+        assert stop(*procs) == [0, 0, 0, 0]
+    lines = [line for line in out.splitlines() if "tick" in line]
+    print(out, err)
+    assert watcher.returncode == 0
+    assert lines[0].split()[3] == "GREEN" and "asks to be taught" in lines[0]
+    assert any(line.split()[3] == "RED" and "teacher/" in line for line in lines[1:])
+    assert "1 malformed commands rejected" in err

@@ -1,6 +1,7 @@
 """The CLI's verbs: each one a short Zenoh conversation with a running supervisor or with teachers."""
 from __future__ import annotations
 
+import collections
 import json
 import logging
 import math
@@ -10,8 +11,8 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import (ArenaReset, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError, TeachSwitch,
-                        decode, encode, supervisor_key)
+from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError,
+                        TeachSwitch, decode, encode, supervisor_key)
 from services.bus import lossless_publisher, wait_matching, zenoh_config
 from services.supervisor.profile import ProfileError, load_profile
 
@@ -129,6 +130,55 @@ def teach(args) -> int:
             time.sleep(0.1)
     print(f"{who} did not confirm teaching {'on' if on else 'off'}", file=sys.stderr)
     return 1
+
+
+EARS = {"teacher": "RED    a teacher drives, the student learns",
+        "student": "BLUE   the student drives",
+        "unsure": "GREEN  the student is unsure: it asks to be taught (dogged teach on)"}
+
+
+def watch(args) -> int:
+    """The robot's ears in a terminal, for a person teaching from anywhere: a line each time the
+    mode changes and holds for `--settle` seconds, and a warning when commands stop coming."""
+    if not (args.settle >= 0 and args.seconds >= 0):
+        print("dogged watch: --settle and --seconds must be 0 or more", file=sys.stderr)
+        return 2
+    keys = InstanceKeys(args.instance)
+    arrived = collections.deque(maxlen=10_000)  # the callback only appends; this thread decodes and prints
+    shown = candidate = None
+    since = last_seen = time.monotonic()
+    end = since + args.seconds if args.seconds > 0 else math.inf
+    quiet_said = rejected = 0
+    with _session(args) as session:
+        session.declare_subscriber(keys.command, lambda sample: arrived.append(sample.payload.to_bytes()))
+        print(f"watching {keys.command} (Ctrl-C to stop)", flush=True)
+        try:
+            while time.monotonic() < end:
+                now = time.monotonic()
+                while arrived:
+                    try:
+                        command = decode(Command, arrived.popleft(), keys.command)
+                    except SchemaError as err:
+                        rejected += 1
+                        print(f"rejected a command: {err}", file=sys.stderr)
+                        continue
+                    last_seen, quiet_said = now, 0
+                    if command.mode != candidate:
+                        candidate, since = command.mode, now
+                    if candidate != shown and now - since >= args.settle:
+                        shown = candidate
+                        bell = "\a" if args.bell and shown == "unsure" else ""
+                        print(f"{time.strftime('%H:%M:%S')}  tick {command.tick:>8}  {EARS[shown]}  "
+                              f"({command.source}, confidence {command.confidence:.2f}){bell}", flush=True)
+                if now - last_seen > 2.0 and not quiet_said:
+                    print(f"{time.strftime('%H:%M:%S')}  no commands for 2 s: is the loop running? (dogged ps)", flush=True)
+                    quiet_said = 1
+                time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+    if rejected:
+        print(f"{rejected} malformed commands rejected", file=sys.stderr)
+    return 0
 
 
 def parse_balls(items: list[str] | None) -> dict:
