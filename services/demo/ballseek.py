@@ -51,7 +51,7 @@ box = "arbitrator"
 """
 
 
-PHASE_LABELS = {"taught": "taught", "student": "pink alone", "orange_before": "orange, untaught",
+PHASE_LABELS = {"taught": "taught", "student": "pink alone", "orange_before": "orange",
                 "correction": "correction", "orange_after": "orange after"}
 PHASE_BALL = {"student": "pink", "orange_before": "orange", "orange_after": "orange"}  # the ball each puts down
 
