@@ -114,7 +114,7 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
         in_phase = (ticks >= start) & (ticks < end)
         figures[f"error_{name}"] = mean(~teaching & in_phase)
         if name in PHASE_BALL and len(ticks):
-            figures[f"asks_{name}"] = asking_rate(mode, in_phase & ball_in_view(x, layout, PHASE_BALL[name]))
+            figures[f"asks_{name}"] = asking_rate(mode[in_phase], ball_in_view(x[in_phase], layout, PHASE_BALL[name]))
     return figures
 
 
@@ -201,24 +201,26 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed:
         t0 = run.tick()
         summary["taught_s"] = teach_phase(run, schedule, seed, rate, answer_probability) / rate
         say(f"taught {summary['taught_s']:.0f} s; the student alone now")
-        phases = {"taught": [t0, run.tick()], "student": [run.tick()]}
-        reach = ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate, on_episode=report("pink"))
+        phases = {"taught": (t0, run.tick())}
+
+        def phase(name: str, work):
+            start = run.tick()
+            result = work()
+            phases[name] = (start, run.tick())
+            return result
+        reach = phase("student", lambda: ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate,
+                                                       on_episode=report("pink")))
         summary.update(successes=sum(r is not None for r in reach), reach_s=reach)
-        phases["student"].append(run.tick())
         if orange_episodes:
             say("the orange ball alone, never seen while taught: does the student chase it like the pink one?")
-            phases["orange_before"] = [run.tick()]
-            before = ball_episodes(run, orange_episodes, orange_seconds, seed, "orange_before", rate, target="orange",
-                                   far=ORANGE_FAR, on_episode=report("orange"))
-            phases["orange_before"].append(run.tick())
-            phases["correction"] = [run.tick()]
+            before = phase("orange_before", lambda: ball_episodes(run, orange_episodes, orange_seconds, seed,
+                                                                  "orange_before", rate, target="orange", far=ORANGE_FAR,
+                                                                  on_episode=report("orange")))
             say(f"correction: {correction_seconds:.0f} s of teaching with the orange ball in front of the robot")
-            correct_orange(run, correction_seconds, seed, rate)
-            phases["correction"].append(run.tick())
-            phases["orange_after"] = [run.tick()]
-            after = ball_episodes(run, orange_episodes, orange_seconds, seed, "orange_after", rate, target="orange",
-                                  far=ORANGE_FAR, on_episode=report("orange"))
-            phases["orange_after"].append(run.tick())
+            phase("correction", lambda: correct_orange(run, correction_seconds, seed, rate))
+            after = phase("orange_after", lambda: ball_episodes(run, orange_episodes, orange_seconds, seed,
+                                                                "orange_after", rate, target="orange", far=ORANGE_FAR,
+                                                                on_episode=report("orange")))
             summary.update(orange_episodes=orange_episodes, orange_before=sum(r is not None for r in before),
                            orange_after=sum(r is not None for r in after))
         summary.update(figure5(run, rate, run_dir, first_tick=t0, layout=layout, phases=phases),

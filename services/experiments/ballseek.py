@@ -123,13 +123,13 @@ class BallWorld:
 
 
 def ball_in_view(xs: np.ndarray, inputs: str, colour: str) -> np.ndarray:
-    """Per input row, in either layout ("slots" or "colours"): is the `colour` ball in view."""
+    """Per row of inputs (n, dims), in either layout ("slots" or "colours"): is the `colour` ball in view."""
     detector = BlobDetector()
     column = 4 * list(detector.colours).index(colour)  # the colour's 'seen' in the detector's layout
     if inputs == "slots":
         slots = BlobSlots(detector)
         return np.array([slots.decode(x)[column] > 0.5 for x in xs], dtype=bool)
-    return np.asarray(xs, dtype=np.float64).reshape(len(xs), -1)[:, column] > 0.5
+    return np.asarray(xs, dtype=np.float64)[:, column] > 0.5
 
 
 def figure5_error(trace: Trace, spaces: Spaces, teacher=None) -> np.ndarray:

@@ -5,6 +5,7 @@ own seeded stream, so the evaluation episodes are never the teaching ones.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -100,23 +101,26 @@ class BallSeekResult:
     def success(self) -> float:
         return float(np.mean([r is not None for r in self.reach_times]))
 
+    @cached_property
+    def _arrays(self) -> dict:
+        return self.trace.arrays()  # the run is over: the trace no longer grows
+
+    def _in_phase(self, phase: str) -> dict:
+        """The trace's arrays cut to `phase` (no rows if it did not happen)."""
+        arrays = self._arrays
+        start, stop = self.phases.get(phase, (0.0, 0.0))
+        rows = (arrays["t"] >= start) & (arrays["t"] < stop)
+        return {name: values[rows] for name, values in arrays.items()}
+
     def asking(self, phase: str, colour: str) -> float | None:
         """Of the student's ticks in `phase` with the `colour` ball in view, the fraction in which
         it asked for teaching (paper Fig. 4d); None if there were none."""
-        if phase not in self.phases:
-            return None
-        arrays, (start, stop) = self.trace.arrays(), self.phases[phase]
-        chosen = (arrays["t"] >= start) & (arrays["t"] < stop)
-        chosen &= ball_in_view(arrays["x"], self.spaces.extra["inputs"], colour)
-        return asking_rate(arrays["mode"], chosen)
+        ticks = self._in_phase(phase)
+        return asking_rate(ticks["mode"], ball_in_view(ticks["x"], self.spaces.extra["inputs"], colour))
 
     def taught_seconds(self, phase: str) -> float:
         """Seconds of teaching given in `phase` (0 if it did not happen)."""
-        if phase not in self.phases:
-            return 0.0
-        arrays, (start, stop) = self.trace.arrays(), self.phases[phase]
-        rate = self.spaces.extra["rate_hz"]
-        return float(np.sum(arrays["teaching"] & (arrays["t"] >= start) & (arrays["t"] < stop))) / rate
+        return float(np.sum(self._in_phase(phase)["teaching"])) / self.spaces.extra["rate_hz"]
 
 
 def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
