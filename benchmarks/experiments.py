@@ -173,7 +173,7 @@ def summarise(mirror: dict, balls: dict, contrast: dict, answered: dict) -> dict
     }
 
 
-def table(s: dict, quick: bool) -> str:
+def table(s: dict, sizes: dict) -> str:
     def sec(v):
         return "never" if v is None else f"{v:.1f} s"
 
@@ -188,7 +188,7 @@ def table(s: dict, quick: bool) -> str:
                  f"{s['mirror_two_teachers_err_worst']:.4f}", "merges both / < 0.05"),
              row("    contrast: the whole output vector trained", f"{s['mirror_two_teachers_err_whole_vector']:.3f}",
                  f"{s['mirror_two_teachers_err_whole_vector_worst']:.3f}", ""),
-             row("3 ball seeking: student reaches pink, 20 episodes of 30 s", pct(s["ballseek_success"]),
+             row(f"3 ball seeking: student reaches pink, {sizes['episodes']} episodes of 30 s", pct(s["ballseek_success"]),
                  pct(s["ballseek_success_worst"]), "works after < 1 min / >= 90%"),
              row("    baseline: the teacher itself on the same episodes", pct(s["ballseek_teacher_success"]),
                  pct(s["ballseek_teacher_success_worst"]), f"student / teacher {s['ballseek_student_over_teacher']:.2f}"),
@@ -220,7 +220,7 @@ def table(s: dict, quick: bool) -> str:
                  pct(s["orange_after_colours_worst"]), ""),
              row("5 Figure 5: error falls in the first teaching span",
                  f"{sum(s['figure5_error_falls'].values())}/{len(s['figure5_error_falls'])}", "", "falls / every plot"),
-             f"   seeds: {s['seeds']}{' (quick: shortened runs, fewer episodes)' if quick else ''}"]
+             f"   seeds: {s['seeds']}{' (quick: shortened runs, fewer episodes)' if sizes is QUICK else ''}"]
     return "\n".join(lines)
 
 
@@ -239,7 +239,7 @@ def main(seeds: int, quick: bool, out: Path, learner: str) -> dict:
     (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "ballseek": balls,
                                                   "orange_colours": contrast, "orange_answers": answered},
                                                  indent=1, default=float))
-    print(table(summary, quick))
+    print(table(summary, sizes))
     print(f"plots and data: {out}")
     return summary
 
