@@ -147,6 +147,21 @@ def check_confidence_knows_what_it_knows(make: Factory) -> None:
     assert np.all(far < 0.25), f"confidence far from the data {far} not below 0.25"
 
 
+def check_confidence_doubts_an_input_that_never_varied(make: Factory) -> None:
+    """Taught with the last input held at 0, a 1 there is new (the orange ball after pink alone):
+    the robot must ask (< 0.25) rather than drive on what it learned, and stay sure at 0."""
+    xs, ys = smooth_task(400)
+    xs[:, -1] = 0.0
+    model = make()
+    for x, y in zip(xs, ys):
+        model.learn_one(x, y)
+    moved = xs.copy()
+    moved[:, -1] = 1.0
+    same, new = (np.median(model.predict_many(q).confidence) for q in (xs, moved))
+    assert same > 0.5, f"median confidence on the training inputs {same:.2f} <= 0.5"
+    assert new < 0.25, f"median confidence with the constant input moved by 1: {new:.2f}, not below 0.25"
+
+
 def check_bad_input_rejected(make: Factory) -> None:
     model = trained(make, 60)
     blob, before = model.snapshot(), model.predict_many(probe_inputs())
@@ -193,7 +208,8 @@ ALL_CHECKS = [
     check_predict_before_learn, check_inputs_not_mutated, check_no_aliasing, check_read_only_inputs,
     check_clone_independence, check_pickle_round_trip, check_seeded_determinism,
     check_learn_many_matches_learn_one, check_memory_bounded, check_confidence_in_unit_interval,
-    check_confidence_knows_what_it_knows, check_bad_input_rejected, check_error_messages,
+    check_confidence_knows_what_it_knows, check_confidence_doubts_an_input_that_never_varied,
+    check_bad_input_rejected, check_error_messages,
 ]
 
 

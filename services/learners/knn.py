@@ -3,7 +3,8 @@
 Remembers the last max_points samples (a ring buffer, so a long stream forgets its
 oldest samples and memory stays bounded) and predicts the inverse-distance weighted
 mean of the k nearest. Confidence is a Gaussian of the nearest neighbour's distance in
-units of length_scale: 1 on a remembered input, falling to 0 far from all of them.
+units of length_scale: 1 on a remembered input, falling to 0 far from all of them, and
+lowered beyond the inputs learned (novelty_scale, services.learners.novelty).
 """
 from __future__ import annotations
 
@@ -12,15 +13,17 @@ import math
 import numpy as np
 
 from .base import Learner, Predictions, check_positive
+from .novelty import InputEnvelope
 
 _CHUNK = 512  # rows per distance block in predict_many: bounds its temporary memory
 
 
 class KNN(Learner):
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, k: int = 5,
-                 max_points: int = 10000, length_scale: float | None = None):
+                 max_points: int = 10000, length_scale: float | None = None, novelty_scale: float = 0.25):
         super().__init__(n_in, n_out, seed)
         self.k, self.max_points, self.length_scale = k, max_points, length_scale
+        self.novelty_scale = check_positive("novelty_scale", novelty_scale, strictly=False)  # 0: off
         for name in ("k", "max_points"):
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or value < 1:
@@ -32,6 +35,7 @@ class KNN(Learner):
         self._ys = np.zeros((0, self.n_out))
         self._count = 0
         self._next = 0  # ring position once memory is full
+        self._envelope = InputEnvelope(self.n_in)  # over every input learned, not only those remembered
 
     @classmethod
     def _unit_test_params(cls) -> dict:
@@ -45,6 +49,7 @@ class KNN(Learner):
         self._learn_many(x[None, :], y[None, :])
 
     def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        self._envelope.learn(xs)
         take = min(self.max_points - self._count, xs.shape[0])
         if take > 0:
             self._reserve(self._count + take)
@@ -78,7 +83,11 @@ class KNN(Learner):
             return Predictions(np.zeros((n, self.n_out)), np.zeros(n), np.full((n, self.n_out), np.inf))
         chunks = [self._predict_chunk(xs[start:start + _CHUNK]) for start in range(0, n, _CHUNK)]
         ys, confidence, spread = (np.concatenate(part) for part in zip(*chunks))
-        return Predictions(ys, confidence, spread)
+        return Predictions(ys, confidence * self._envelope.discount(xs, self.novelty_scale), spread)
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(state)
+        self.__dict__.setdefault("_envelope", InputEnvelope(self.n_in))  # snapshots from before it: no doubt yet
 
     def _predict_chunk(self, xs: np.ndarray):
         stored_x, stored_y = self._xs[:self._count], self._ys[:self._count]

@@ -13,6 +13,8 @@ import math
 
 import numba as nb
 
+from .novelty import EXPERIENCED_SDS  # a field's experience: mean +- this many sd per input
+
 # Reassociation lets LLVM vectorise the dot products; no-NaN/no-inf flags are left out
 # on purpose because the kernels test for non-finite inputs and return inf intervals.
 FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
@@ -37,9 +39,6 @@ N_MATRICES = 9
  HP_UPDATE_D, HP_INIT_D, HP_INIT_ALPHA, HP_MAX_REG, HP_ADD_MIN_DATA, HP_INIT_REG,
  HP_MAX_RFS, HP_EXACT_FIT, HP_NOVELTY_SCALE) = range(21)
 N_HP = 21
-
-# a field has seen an input's values within this many standard deviations of their mean
-EXPERIENCED_SDS = 3.0
 
 
 # initial inverse covariance of the exact local fit: a ridge of 1e-8, small enough that nearly
