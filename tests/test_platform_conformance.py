@@ -61,6 +61,27 @@ def test_checker_catches_watchdog_that_keeps_moving():
     assert message.endswith("; the watchdog must keep the robot still when commands stop")
 
 
+class SwayingPoint(PointPlatform):
+    """Declares a settle time, then sways on while held: the settle must not excuse it."""
+    hold_settle_seconds = 0.5
+
+    def hold(self, dt):
+        super().hold(dt)
+        self._position = self.spaces.output.clip(self._position + 0.5 * dt * np.cos(np.pi * self._time))
+
+
+def test_a_declared_settle_time_does_not_excuse_a_watchdog_that_keeps_moving():
+    with pytest.raises(AssertionError, match="the watchdog must keep the robot still"):
+        check_watchdog_holds_still(lambda seed: SwayingPoint(dims=2, seed=seed))
+
+
+def test_checker_rejects_a_settle_time_beyond_the_bound():
+    class Sluggish(PointPlatform):
+        hold_settle_seconds = 3.0
+    with pytest.raises(AssertionError, match="hold_settle_seconds is 3.0; declare a number of seconds from 0 to 0.5"):
+        check_watchdog_holds_still(lambda seed: Sluggish(dims=2, seed=seed))
+
+
 def test_spaces_round_trip_used_by_checker():
     spaces = Spaces(Box.uniform(2, -1, 1, "x"), Box.uniform(1, 0, 1, "u"), {"k": 1})
     assert Spaces.from_dict(spaces.to_dict()) == spaces

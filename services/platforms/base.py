@@ -14,6 +14,9 @@ from bus_schema.spaces import Spaces
 @runtime_checkable
 class Platform(Protocol):
     spaces: Spaces
+    # optional: seconds hold() may take to bring the robot to rest (a walking robot puts its feet
+    # down), at most MAX_HOLD_SETTLE_SECONDS; 0 if absent: still from the first held step
+    hold_settle_seconds: float
 
     def reset(self, seed: int | None = None) -> np.ndarray:
         """Start an episode; returns the first input (shape spaces.input.dims)."""
@@ -25,7 +28,8 @@ class Platform(Protocol):
         """Apply `command` clipped to spaces.output, advance `dt` seconds; returns the command applied."""
 
     def hold(self, dt: float) -> None:
-        """Watchdog action: no fresh command, hold still for `dt` seconds."""
+        """Watchdog action: no fresh command, come to rest (within hold_settle_seconds) and hold
+        still, for `dt` seconds."""
 
     def close(self) -> None:
         """Release resources; idempotent."""

@@ -16,6 +16,7 @@ from bus_schema.spaces import Box, Spaces
 DT = 0.05  # seconds per step: a 20 Hz control loop is slow enough for any platform to respond
 STEPS = 20
 HOLD_TOLERANCE = 0.02  # of each input's range: how far a held input may wander
+MAX_HOLD_SETTLE_SECONDS = 0.5  # the longest a platform may declare for hold() to bring it to rest
 
 
 def _random_commands(box: Box, count: int, rng: np.random.Generator, spread: float) -> np.ndarray:
@@ -79,10 +80,15 @@ def check_limits_respected(platform_factory: Callable) -> None:
 
 
 def check_watchdog_holds_still(platform_factory: Callable) -> None:
-    """hold() keeps still what the commands move. Two twins get the same commands; then one holds
-    while the other is sent the mirror image of the last command. An input may change during the
-    hold only as it also changes in the twin (the world going on, not the robot moving)."""
+    """hold() keeps still what the commands move, once its declared `hold_settle_seconds` (0 if
+    absent, at most MAX_HOLD_SETTLE_SECONDS) have passed. Two twins get the same commands; then one
+    holds while the other is sent the mirror image of the last command. After the settle, an input
+    may change only as it also changes in the twin (the world going on, not the robot moving)."""
     with closing(platform_factory(seed=0)) as held, closing(platform_factory(seed=0)) as twin:
+        settle = getattr(held, "hold_settle_seconds", 0.0)
+        assert isinstance(settle, (int, float)) and 0.0 <= settle <= MAX_HOLD_SETTLE_SECONDS, (
+            f"hold_settle_seconds is {settle!r}; declare a number of seconds from 0 to {MAX_HOLD_SETTLE_SECONDS}: "
+            "a watchdog that takes longer to stop the robot is no watchdog")
         held.reset(seed=0)
         twin.reset(seed=0)
         box = held.spaces.output
@@ -91,6 +97,9 @@ def check_watchdog_holds_still(platform_factory: Callable) -> None:
             held.step(command, DT)
             twin.step(command, DT)
         mirrored = np.asarray(box.low) + np.asarray(box.high) - commands[-1]
+        for _ in range(int(np.ceil(settle / DT - 1e-9))):
+            held.hold(DT)
+            twin.step(mirrored, DT)
         before = held.observe()
         for _ in range(STEPS):
             held.hold(DT)

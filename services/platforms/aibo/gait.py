@@ -88,9 +88,10 @@ class TrotGait:
             foot[2] += self.lift * self._activity * np.sin(np.pi * s)
         return foot
 
-    def targets(self, forward: float, turn: float, dt: float) -> np.ndarray:
-        """Advance the gait by dt seconds under the command; returns 12 leg joint targets (rad)."""
-        blend = 1.0 - np.exp(-dt / self.smoothing)
+    def targets(self, forward: float, turn: float, dt: float, smoothing: float | None = None) -> np.ndarray:
+        """Advance the gait by dt seconds under the command, low-passed over `smoothing` seconds
+        (default: the gait's own); returns 12 leg joint targets (rad)."""
+        blend = 1.0 - np.exp(-dt / (smoothing or self.smoothing))
         self._command += blend * (np.array([forward, turn], dtype=np.float64) - self._command)
         moving = abs(forward) > self.still_below or abs(turn) > self.still_below
         self._activity += blend * (float(moving) - self._activity)
@@ -108,7 +109,8 @@ MOVE_LIMITS = np.array([[-0.15, 0.15], [-0.8, 0.8]])
 # The camera sees 45 degrees top to bottom. Tilted 0.35 rad down, a ball at the forepaws stays in view
 # until 0.17 m from the nose (at 0.25 rad it was lost at 0.195 m, the very edge of ball seeking's
 # "within 0.2 m"), and a ball 1.37 m away is still seen (that far, its blob is a few pixels). 0.4 rad
-# sees closer still (0.15 m), but a robot held mid-stride then creeps more on its three grounded paws.
+# sees closer still (0.15 m); it made the robot creep more when the watchdog held it mid-stride (the
+# watchdog now stands it on four paws; 0.4 was not tried again).
 REST_HEAD_TILT = -0.35
 
 

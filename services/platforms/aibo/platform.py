@@ -34,6 +34,8 @@ class AiboPlatform:
         self.spaces = Spaces(input=JOINTS_BOX, output=JOINTS_BOX if command == "joints" else MOVE_BOX, extra=extra)
         self.sim = AiboSim(seed=seed, gui=gui, physics_hz=physics_hz)
         self._holding = False
+        # a walking robot's watchdog puts its feet down (on four paws after 0.22-0.30 s, docs/aibo.md)
+        self.hold_settle_seconds = 0.5 if command == "move" else 0.0
 
     def reset(self, seed: int | None = None) -> np.ndarray:
         self.sim.reset(self.seed if seed is None else seed)
@@ -60,8 +62,8 @@ class AiboPlatform:
         return applied
 
     def hold(self, dt: float) -> None:
-        """Watchdog: stop walking and keep the joints where they were when commands stopped
-        (captured once, so that a long hold does not creep under gravity)."""
+        """Watchdog: stop walking, feet down, and keep the other joints where they were when
+        commands stopped (captured once, so that a long hold does not creep under gravity)."""
         if not self._holding:
             self.sim.hold()
             self._holding = True

@@ -18,7 +18,7 @@ from pybullet_utils.bullet_client import BulletClient
 from services.platforms.aibo.arena import Arena
 from services.platforms.aibo.camera import NoseCamera
 from services.platforms.aibo.gait import MOVE_LIMITS, TrotGait, neutral_pose
-from services.platforms.aibo.joints import JOINT_LIMITS, JOINT_NAMES, LEG_SLICE
+from services.platforms.aibo.joints import JOINT_LIMITS, JOINT_NAMES, LEG_SLICE, LEGS
 from services.platforms.aibo.model import URDF_PATH
 
 
@@ -41,6 +41,7 @@ SETTLE_SECONDS = 0.5  # reset lets the robot land on its feet before the clock s
 LEG_FORCE, OTHER_FORCE = 2.5, 0.8
 POSITION_GAIN, VELOCITY_GAIN = 0.35, 1.0
 FOOT_FRICTION = 1.0
+STOP_SMOOTHING = 0.08  # s: the watchdog brings a walking robot to a stand this fast (walking: 0.25)
 
 
 class AiboSim:
@@ -75,7 +76,7 @@ class AiboSim:
         self.gait.reset()
         self._load_robot()
         self._steps, self._clock = 0, 0.0
-        self._mode = "joints"
+        self._mode, self._stopping = "joints", False
         self._movement = np.zeros(2)
         self._targets = neutral_pose(self.gait)
         self._handled_mask = np.zeros(len(JOINT_NAMES), dtype=bool)
@@ -95,8 +96,10 @@ class AiboSim:
         self._nose, self._ears = links["nose"], (links["ear_left"], links["ear_right"])
         for j, q in zip(self._joints, pose):
             c.resetJointState(self.robot, j, float(q))
-        for leg in ("fl", "fr", "rl", "rr"):
-            c.changeDynamics(self.robot, links[f"{leg}_shin"], lateralFriction=FOOT_FRICTION)
+        self._paws = {leg: links[f"{leg}_shin"] for leg in LEGS}
+        for paw in self._paws.values():
+            # the anchor stops contact drift: without it a robot standing still slid 0.8 mm/s
+            c.changeDynamics(self.robot, paw, lateralFriction=FOOT_FRICTION, frictionAnchor=1)
         self._forces = [LEG_FORCE if i < 12 else OTHER_FORCE for i in range(len(JOINT_NAMES))]
 
     # ---- commands -------------------------------------------------------------------------------
@@ -111,7 +114,7 @@ class AiboSim:
     def set_movement(self, forward: float, turn: float) -> np.ndarray:
         """Walk: (forward m/s, turn rad/s, left positive), clipped to MOVE_LIMITS; returns what is applied."""
         self._movement = np.clip([forward, turn], MOVE_LIMITS[:, 0], MOVE_LIMITS[:, 1]).astype(np.float64)
-        self._mode = "move"
+        self._mode, self._stopping = "move", False
         return self._movement.copy()
 
     def set_handled(self, mask, q=None) -> None:
@@ -121,11 +124,12 @@ class AiboSim:
             self._handled_q = np.clip(np.asarray(q, dtype=np.float64), JOINT_LIMITS[:, 0], JOINT_LIMITS[:, 1])
 
     def hold(self) -> None:
-        """Watchdog: stop walking and keep every motor where it is now."""
+        """Watchdog: keep every motor where it is now; a walking robot first puts its feet down
+        where they are (a trot frozen mid-stride stands on two diagonal paws, rocks and slides)."""
         self._targets = self.joint_positions()
-        self._movement = np.zeros(2)
-        self._mode = "joints"
-        self.gait.reset()
+        if self._mode == "move":
+            self._movement = np.zeros(2)
+            self._stopping = True
 
     # ---- time -----------------------------------------------------------------------------------
 
@@ -141,7 +145,7 @@ class AiboSim:
         for _ in range(max(substeps, 0)):
             targets = self._targets.copy()
             if self._mode == "move":
-                targets[LEG_SLICE] = self.gait.targets(*self._movement, h)
+                targets[LEG_SLICE] = self.gait.targets(*self._movement, h, STOP_SMOOTHING if self._stopping else None)
             targets = np.where(self._handled_mask, self._handled_q, targets)
             c.setJointMotorControlArray(self.robot, self._joints, c.POSITION_CONTROL, targetPositions=targets.tolist(),
                                         forces=self._forces, positionGains=[POSITION_GAIN] * len(targets),
@@ -174,6 +178,11 @@ class AiboSim:
         """Cosine of the body's tilt: 1 level, 0 on its side, negative upside down."""
         rotation = np.array(self._client.getMatrixFromQuaternion(self.base_pose()[1])).reshape(3, 3)
         return float(rotation[2, 2])
+
+    def paws_on_floor(self) -> tuple[str, ...]:
+        """The legs ("fl", "fr", "rl", "rr") whose paw touches the floor now."""
+        touching = {contact[3] for contact in self._client.getContactPoints(bodyA=self.robot, bodyB=self.arena.floor)}
+        return tuple(leg for leg, paw in self._paws.items() if paw in touching)
 
     def nose_pose(self) -> tuple[np.ndarray, np.ndarray]:
         state = self._client.getLinkState(self.robot, self._nose, computeForwardKinematics=1)
