@@ -153,11 +153,12 @@ class Learner:
         return model
 
     def __setstate__(self, state: dict) -> None:
-        # a snapshot taken before a hyper-parameter existed gets its default
+        # a snapshot taken before an attribute existed (a hyper-parameter, a piece of learned state)
+        # gets what a fresh learner of this version, with the snapshot's hyper-parameters, starts with
         self.__dict__.update(state)
-        for name, parameter in inspect.signature(type(self).__init__).parameters.items():
-            if name not in self.__dict__ and parameter.default is not inspect.Parameter.empty:
-                setattr(self, name, parameter.default)
+        params = {name: state[name] for name in self.param_names() if name in state}
+        for name, value in vars(type(self)(self.n_in, self.n_out, seed=self.seed, **params)).items():
+            self.__dict__.setdefault(name, value)
 
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())

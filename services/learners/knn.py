@@ -85,10 +85,6 @@ class KNN(Learner):
         ys, confidence, spread = (np.concatenate(part) for part in zip(*chunks))
         return Predictions(ys, confidence * self._envelope.discount(xs, self.novelty_scale), spread)
 
-    def __setstate__(self, state: dict) -> None:
-        super().__setstate__(state)
-        self.__dict__.setdefault("_envelope", InputEnvelope(self.n_in))  # snapshots from before it: no doubt yet
-
     def _predict_chunk(self, xs: np.ndarray):
         stored_x, stored_y = self._xs[:self._count], self._ys[:self._count]
         d2 = (xs * xs).sum(1)[:, None] - 2.0 * xs @ stored_x.T + (stored_x * stored_x).sum(1)[None, :]

@@ -65,10 +65,6 @@ class SOGP(Learner):
         interval = np.repeat(np.sqrt(var + noise)[:, None], self.n_out, axis=1)
         return Predictions(mean, confidence, interval)
 
-    def __setstate__(self, state: dict) -> None:
-        super().__setstate__(state)
-        self.__dict__.setdefault("_envelope", InputEnvelope(self.n_in))  # snapshots from before it: no doubt yet
-
 
 def _kernels():
     from . import sogp_kernels  # first use compiles or loads from numba's cache
