@@ -30,7 +30,7 @@ from tqdm import tqdm  # noqa: E402
 from bus_schema.spaces import Spaces  # noqa: E402
 from services.experiments import ballseek, mirroring  # noqa: E402
 from services.experiments.ballseek_protocol import run_ballseek, teacher_success  # noqa: E402
-from services.experiments.evaluate import first_band_drop, plot_error  # noqa: E402
+from services.experiments.evaluate import first_band_drop, percent, plot_error  # noqa: E402
 from services.platforms.aibo.platform import JOINTS_BOX  # noqa: E402
 
 FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5, "pink_after": 5, "contrast_seeds": 3}
@@ -110,14 +110,12 @@ def orange_figures(rows: list, tag: str) -> dict:
     """Fraction of orange-only episodes where the student reached the orange ball, and of pink
     episodes after the correction where it reached pink, pooled over seeds, and the worst seed
     (before correction the worst is the fewest; after, the most; pink after: the fewest)."""
-    def pooled(name):
-        return round(float(np.mean(np.concatenate([r[name] for r in rows]))), 3)
-    return {f"orange_before{tag}": pooled("orange_before"),
-            f"orange_before{tag}_worst": round(float(np.min([np.mean(r["orange_before"]) for r in rows])), 3),
-            f"orange_after{tag}": pooled("orange_after"),
-            f"orange_after{tag}_worst": round(float(np.max([np.mean(r["orange_after"]) for r in rows])), 3),
-            f"pink_after_correction{tag}": pooled("pink_after"),
-            f"pink_after_correction{tag}_worst": round(float(np.min([np.mean(r["pink_after"]) for r in rows])), 3)}
+    figures = {}
+    for name, key, worst in (("orange_before", "orange_before", np.min), ("orange_after", "orange_after", np.max),
+                             ("pink_after", "pink_after_correction", np.min)):
+        figures[f"{key}{tag}"] = round(float(np.mean(np.concatenate([r[name] for r in rows]))), 3)
+        figures[f"{key}{tag}_worst"] = round(float(worst([np.mean(r[name]) for r in rows])), 3)
+    return figures
 
 
 def asking_figures(rows: list) -> dict:
@@ -179,8 +177,9 @@ def table(s: dict, sizes: dict) -> str:
 
     def row(name, median, worst, claim):
         return f"{name:62} {median:>8} {worst:>8}  {claim}"
-    def pct(v):
-        return "n/a" if v is None else f"{v:.0%}"
+
+    def share(name, key, claim=""):  # a fraction: the figure and its worst seed, as percentages
+        return row(name, percent(s[key]), percent(s.get(f"{key}_worst")), claim)
     lines = [row("figure", "median", "worst", "paper / target"), "-" * 112,
              row("1 mirroring: teaching until held-out RMS < 0.05 rad", sec(s["mirror_teach_s_median"]),
                  sec(s["mirror_teach_s_worst"]), "< 10 s / < 5 s"),
@@ -188,36 +187,27 @@ def table(s: dict, sizes: dict) -> str:
                  f"{s['mirror_two_teachers_err_worst']:.4f}", "merges both / < 0.05"),
              row("    contrast: the whole output vector trained", f"{s['mirror_two_teachers_err_whole_vector']:.3f}",
                  f"{s['mirror_two_teachers_err_whole_vector_worst']:.3f}", ""),
-             row(f"3 ball seeking: student reaches pink, {sizes['episodes']} episodes of 30 s", pct(s["ballseek_success"]),
-                 pct(s["ballseek_success_worst"]), "works after < 1 min / >= 90%"),
-             row("    baseline: the teacher itself on the same episodes", pct(s["ballseek_teacher_success"]),
-                 pct(s["ballseek_teacher_success_worst"]), f"student / teacher {s['ballseek_student_over_teacher']:.2f}"),
-             row("    contrast: the teacher, balls behind the clutter too", pct(s["ballseek_teacher_success_anywhere"]),
-                 pct(s["ballseek_teacher_success_anywhere_worst"]), "(a person puts the ball in view)"),
-             row("4 approaches orange before correction (pooled)", pct(s["orange_before"]),
-                 pct(s["orange_before_worst"]), "approaches it / most"),
-             row("4 approaches orange after 20 s of correction (pooled)", pct(s["orange_after"]),
-                 pct(s["orange_after_worst"]), "ignores it / <= 10%"),
-             row("4 asks for teaching, orange in view, before correction (ticks)", pct(s["asks_orange_before"]),
-                 pct(s["asks_orange_before_worst"]), "requests education (Fig. 4d)"),
-             row("4 asks for teaching, orange in view, after correction", pct(s["asks_orange_after"]),
-                 pct(s["asks_orange_after_worst"]), ""),
-             row("    asks for teaching, pink in view, student alone", pct(s["asks_pink"]),
-                 pct(s["asks_pink_worst"]), "sure of what it was taught"),
-             row("    after the correction, reaches pink (pooled)", pct(s["pink_after_correction"]),
-                 pct(s["pink_after_correction_worst"]), "responds only to pink"),
-             row("      baseline: the teacher on the same episodes", pct(s["pink_after_correction_teacher"]), "", ""),
+             share(f"3 ball seeking: student reaches pink, {sizes['episodes']} episodes of 30 s", "ballseek_success",
+                   "works after < 1 min / >= 90%"),
+             share("    baseline: the teacher itself on the same episodes", "ballseek_teacher_success",
+                   f"student / teacher {s['ballseek_student_over_teacher']:.2f}"),
+             share("    contrast: the teacher, balls behind the clutter too", "ballseek_teacher_success_anywhere",
+                   "(a person puts the ball in view)"),
+             share("4 approaches orange before correction (pooled)", "orange_before", "approaches it / most"),
+             share("4 approaches orange after 20 s of correction (pooled)", "orange_after", "ignores it / <= 10%"),
+             share("4 asks for teaching, orange in view, before correction (ticks)", "asks_orange_before",
+                   "requests education (Fig. 4d)"),
+             share("4 asks for teaching, orange in view, after correction", "asks_orange_after"),
+             share("    asks for teaching, pink in view, student alone", "asks_pink", "sure of what it was taught"),
+             share("    after the correction, reaches pink (pooled)", "pink_after_correction", "responds only to pink"),
+             row("      baseline: the teacher on the same episodes", percent(s["pink_after_correction_teacher"]), "", ""),
              row(f"    correction by answering its requests ({s['orange_answers_seeds']} seeds): teaching",
                  f"{s['orange_answers_taught_s']:.1f} s", f"{s['orange_answers_taught_s_worst']:.1f} s",
                  "short (< 10 s) activations"),
-             row("      then approaches orange (pooled)", pct(s["orange_after_answers"]),
-                 pct(s["orange_after_answers_worst"]), ""),
-             row("      then reaches pink (pooled)", pct(s["pink_after_correction_answers"]),
-                 pct(s["pink_after_correction_answers_worst"]), ""),
-             row(f"    contrast: per-colour layout, before ({s['orange_colours_seeds']} seeds)",
-                 pct(s["orange_before_colours"]), pct(s["orange_before_colours_worst"]), ""),
-             row("    contrast: per-colour layout, after", pct(s["orange_after_colours"]),
-                 pct(s["orange_after_colours_worst"]), ""),
+             share("      then approaches orange (pooled)", "orange_after_answers"),
+             share("      then reaches pink (pooled)", "pink_after_correction_answers"),
+             share(f"    contrast: per-colour layout, before ({s['orange_colours_seeds']} seeds)", "orange_before_colours"),
+             share("    contrast: per-colour layout, after", "orange_after_colours"),
              row("5 Figure 5: error falls in the first teaching span",
                  f"{sum(s['figure5_error_falls'].values())}/{len(s['figure5_error_falls'])}", "", "falls / every plot"),
              f"   seeds: {s['seeds']}{' (quick: shortened runs, fewer episodes)' if sizes is QUICK else ''}"]

@@ -13,10 +13,6 @@ def free_endpoint() -> str:
         return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
-def percent(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:.0%}"
-
-
 def cli(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="dogged demo", description=__doc__.splitlines()[0])
     parser.add_argument("--learner", default="lwpr")
@@ -31,6 +27,7 @@ def cli(argv=None) -> int:
     if not 0.0 <= args.answer_unsure <= 1.0:
         parser.error(f"--answer-unsure is a probability in [0, 1], got {args.answer_unsure}")
     from services.demo.ballseek import run_ballseek_live
+    from services.experiments.evaluate import percent
     run_dir = Path(args.out or f"runs/{time.strftime('%Y%m%d-%H%M%S')}")
     print(f"dogged demo: ball seeking on a simulated Aibo, all boxes as processes over Zenoh -> {run_dir}/")
     s = run_ballseek_live(run_dir, free_endpoint(), args.learner, args.seed, args.episodes,

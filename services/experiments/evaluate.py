@@ -43,6 +43,11 @@ def asking_rate(modes, chosen=None) -> float | None:
     return float(np.mean(modes[driving] == "unsure")) if driving.any() else None
 
 
+def percent(fraction: float | None) -> str:
+    """A fraction as a whole percentage for tables and summaries; n/a for None (nothing to count)."""
+    return "n/a" if fraction is None else f"{fraction:.0%}"
+
+
 def teaching_bands(t: np.ndarray, teaching: np.ndarray) -> list[tuple[float, float]]:
     """(start, stop) times of each run of ticks with the teacher on; stop is the next tick's time."""
     t, teaching = np.asarray(t, dtype=np.float64), np.asarray(teaching, dtype=bool)
