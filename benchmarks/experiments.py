@@ -3,8 +3,9 @@ and the orange ball, over several seeds, single process, simulated time as fast 
 
     .venv/bin/python benchmarks/experiments.py [--seeds 10] [--quick] [--out DIR]
 
-The system as wired: LWPR (per-output LWPR where partial teachers teach, as deploy/mirroring.toml),
-ball seeking on the colour-blind slot layout (as deploy/ballseek.toml). Baselines measured in the
+The system as wired: each experiment's learner is read from its deploy profile (per-output GP for
+mirroring, the GP with near=0.1 for ball seeking, on the colour-blind slot layout); --learner NAME
+runs every experiment with that learner instead. Baselines measured in the
 same run: the teacher's own success on the student's episodes, and two contrasts that show why
 the wiring is what it is (whole-vector training for two teachers; the per-colour layout for the
 orange ball). Beside the scheduled 20 s correction, a few seeds leave it to the robot's initiative:
@@ -31,6 +32,7 @@ from bus_schema.spaces import Spaces  # noqa: E402
 from services.experiments import ballseek, mirroring  # noqa: E402
 from services.experiments.ballseek_protocol import run_ballseek, teacher_success  # noqa: E402
 from services.experiments.evaluate import first_band_drop, percent, plot_error  # noqa: E402
+from services.experiments.wiring import wired_learner  # noqa: E402
 from services.platforms.aibo.platform import JOINTS_BOX  # noqa: E402
 
 FULL = {"max_teach": 12.0, "seconds_each": 10.0, "episodes": 20, "orange": 5, "pink_after": 5, "contrast_seeds": 3}
@@ -48,11 +50,11 @@ def figure5(out: Path, name: str, trace, error, title: str, window: int, phases:
             "falls": bool(end < start)}
 
 
-def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
+def run_mirroring(seeds, learner: tuple[str, dict], sizes: dict, out: Path) -> dict:
     spaces = Spaces(JOINTS_BOX, JOINTS_BOX)
     one, two, plots = [], [], {}
     for seed in tqdm(seeds, desc="mirroring, one teacher", file=sys.stderr):
-        result = mirroring.one_teacher(seed, learner, max_teach=sizes["max_teach"])
+        result = mirroring.one_teacher(seed, learner[0], max_teach=sizes["max_teach"], **learner[1])
         one.append({"seed": seed, "teach_s": result.teach_seconds, "final_err": result.final_error, "curve": result.curve})
         if seed == seeds[0]:
             plots["mirror_one"] = figure5(out, f"mirror_one_seed{seed}", result.trace,
@@ -61,7 +63,8 @@ def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
     for seed in tqdm(seeds, desc="mirroring, two teachers", file=sys.stderr):
         row = {"seed": seed}
         for masked, tag in ((True, ""), (False, "_whole_vector")):
-            result = mirroring.two_teachers(seed, learner, seconds_each=sizes["seconds_each"], masked=masked)
+            result = mirroring.two_teachers(seed, learner[0], seconds_each=sizes["seconds_each"], masked=masked,
+                                            **learner[1])
             row.update({f"after_pan{tag}": result.curve[0][1], f"final_err{tag}": result.final_error})
             if seed == seeds[0]:
                 how = "per-output learner" if masked else "whole vector trained (contrast)"
@@ -72,7 +75,7 @@ def run_mirroring(seeds, learner: str, sizes: dict, out: Path) -> dict:
     return {"one": one, "two": two, "plots": plots}
 
 
-def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, episodes: int,
+def run_ballseeking(seeds, learner: tuple[str, dict], sizes: dict, out: Path, inputs: str, episodes: int,
                     correction: str = "scheduled") -> dict:
     """The whole V.B protocol per seed; `episodes` = 0 runs teaching and the orange ball only;
     `correction` "answers" leaves the orange correction to the robot's requests."""
@@ -80,8 +83,8 @@ def run_ballseeking(seeds, learner: str, sizes: dict, out: Path, inputs: str, ep
     what = "ball seeking + orange" if episodes else "orange only"
     name = f"ballseek_{inputs}" + ("" if correction == "scheduled" else f"_{correction}")
     for seed in tqdm(seeds, desc=f"{what}, {inputs} layout, {correction} correction", file=sys.stderr):
-        r = run_ballseek(seed, learner, n_episodes=episodes, n_orange=sizes["orange"], inputs=inputs,
-                         n_pink_after=sizes["pink_after"], correction=correction)
+        r = run_ballseek(seed, learner[0], n_episodes=episodes, n_orange=sizes["orange"], inputs=inputs,
+                         n_pink_after=sizes["pink_after"], correction=correction, **learner[1])
         row = {"seed": seed, "taught_s": r.teaching_seconds, "reach_times": r.reach_times,
                "orange_before": r.orange_before, "orange_after": r.orange_after,
                "pink_after": [t is not None for t in r.pink_after],
@@ -214,17 +217,21 @@ def table(s: dict, sizes: dict) -> str:
     return "\n".join(lines)
 
 
-def main(seeds: int, quick: bool, out: Path, learner: str) -> dict:
+def main(seeds: int, quick: bool, out: Path, learner: str | None) -> dict:
+    """learner None: each experiment's learner as its deploy profile wires it; a name: that learner."""
     out.mkdir(parents=True, exist_ok=True)
     sizes = QUICK if quick else FULL
     seed_list = list(range(min(seeds, 2) if quick else seeds))
     started = time.perf_counter()
-    mirror = run_mirroring(seed_list, learner, sizes, out)
+    mirror_learner = wired_learner("mirroring") if learner is None else (learner, {})
+    ball_learner = wired_learner("ballseek") if learner is None else (learner, {})
+    mirror = run_mirroring(seed_list, mirror_learner, sizes, out)
     ball_seeds = seed_list[:1] if quick else seed_list
-    balls = run_ballseeking(ball_seeds, learner, sizes, out, "slots", sizes["episodes"])
-    contrast = run_ballseeking(seed_list[:sizes["contrast_seeds"]], learner, sizes, out, "colours", 0)
-    answered = run_ballseeking(seed_list[:sizes["contrast_seeds"]], learner, sizes, out, "slots", 0, "answers")
+    balls = run_ballseeking(ball_seeds, ball_learner, sizes, out, "slots", sizes["episodes"])
+    contrast = run_ballseeking(seed_list[:sizes["contrast_seeds"]], ball_learner, sizes, out, "colours", 0)
+    answered = run_ballseeking(seed_list[:sizes["contrast_seeds"]], ball_learner, sizes, out, "slots", 0, "answers")
     summary = summarise(mirror, balls, contrast, answered)
+    summary["learners"] = {"mirroring": list(mirror_learner), "ballseek": list(ball_learner)}
     summary["wall_s"] = round(time.perf_counter() - started, 1)
     (out / "results.json").write_text(json.dumps({"summary": summary, "mirror": mirror, "ballseek": balls,
                                                   "orange_colours": contrast, "orange_answers": answered},
@@ -239,7 +246,8 @@ if __name__ == "__main__":
     parser.add_argument("--seeds", type=int, default=10, help="seeds per experiment (default 10)")
     parser.add_argument("--quick", action="store_true", help="shortened runs, a minute or two")
     parser.add_argument("--out", type=Path, default=None, help="where PNGs and data go (default runs/experiments-<time>/)")
-    parser.add_argument("--learner", default="lwpr", help="learner of every experiment (default lwpr)")
+    parser.add_argument("--learner", default=None,
+                        help="learner of every experiment (default: each as its deploy profile wires it)")
     args = parser.parse_args()
     out = args.out or Path("runs") / time.strftime("experiments-%Y%m%d-%H%M%S")
     print(json.dumps(main(args.seeds, args.quick, out, args.learner)))

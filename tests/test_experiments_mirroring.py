@@ -48,10 +48,29 @@ def test_student_mirrors_a_held_out_tail_after_a_few_seconds_of_teaching():
 def test_head_readings_that_echo_the_command_do_not_hold_the_student_back():
     """Seed 6 is the slowest mirroring seed: while taught, the head readings follow the commanded
     head and the distractors drift along with the tail, nearly collinear with what matters. The
-    local fits must not be biased there (LWPR's ridge prior was 1e-4: 0.082 rad after 3 s; 1e-8:
-    0.0002 rad)."""
+    wired learner must mirror the whole held-out sweep after 3 s all the same."""
     result = mirroring.one_teacher(6, max_teach=3.0, check_every=1.5, held_out_seconds=5.0, alone_seconds=0.5)
     assert result.final_error < mirroring.ERROR_BOUND
+
+
+def test_lwpr_local_fits_are_not_biased_by_head_readings_that_echo_the_command():
+    """The same seed with LWPR, whose answers are held to the taught range (+10 %): judged on the
+    held-out ticks whose head targets lie in the range taught, where holding does not act, its exact
+    local fits must be right (ridge prior 1e-4: 0.030 rad over those 90 ticks; 1e-8: 0.0001 rad)."""
+    run = mirroring.new_run(6, "lwpr")
+    teacher = MirrorTeacher(run.platform.spaces, axes="both")
+    run.run(3.0, {"teacher/mirror": teacher})
+    taught = run.trace.arrays()["y"][:, list(mirroring.HEAD_AXES)]
+    held = mirroring.MirrorRun(6, run.learner, run.platform, mirroring.Handler(
+        seed=6 + mirroring.HELD_OUT_SEED_OFFSET, distractors=mirroring.MIRRORING_DISTRACTORS))
+    run.platform.reset(6 + mirroring.HELD_OUT_SEED_OFFSET)
+    held.run(5.0, teachers={})
+    arrays = held.trace.arrays()
+    reference = np.array([teacher(x)[0] for x in arrays["x"]])[:, list(mirroring.HEAD_AXES)]
+    inside = np.all((reference >= taught.min(0)) & (reference <= taught.max(0)), axis=1)
+    run.platform.close()
+    errors = arrays["student"][inside][:, list(mirroring.HEAD_AXES)] - reference[inside]
+    assert inside.sum() > 30 and np.sqrt(np.mean(errors ** 2)) < 0.005, (inside.sum(), np.sqrt(np.mean(errors ** 2)))
 
 
 def test_per_output_student_trains_only_the_outputs_the_teacher_speaks_for():

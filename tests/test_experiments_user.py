@@ -51,9 +51,9 @@ def test_in_the_loop_an_untaught_robot_asks_and_the_user_answers():
     answers teaches at once, for answer_seconds (2 s), and again whenever it asks."""
     from services.experiments.ballseek_protocol import run_ballseek
 
-    def run(p):
-        r = run_ballseek(0, schedule=((10.0, 15.0),), teach_seconds=5.0, answer_probability=p, n_episodes=0,
-                         n_orange=0, correction_seconds=0.0, n_pink_after=0)
+    def run(p):  # LWPR, whose requests are pinned here: the user's part is what is tested
+        r = run_ballseek(0, "lwpr", schedule=((10.0, 15.0),), teach_seconds=5.0, answer_probability=p,
+                         n_episodes=0, n_orange=0, correction_seconds=0.0, n_pink_after=0)
         a = r.trace.arrays()
         asked = a["mode"] == "unsure"
         return (r.teaching_seconds, int(np.sum(asked)), float(a["t"][np.argmax(a["teaching"])]),
@@ -70,8 +70,10 @@ def test_asked_about_the_orange_ball_a_person_who_answers_corrects_it():
     whenever the orange ball is in view (and not with pink); a person who teaches only when asked
     corrects it in a few seconds, after which it ignores orange and still seeks pink."""
     from services.experiments.ballseek_protocol import run_ballseek
+    from services.experiments.wiring import wired_learner
 
-    r = run_ballseek(0, n_episodes=2, n_orange=2, correction="answers", n_pink_after=2)
+    learner, params = wired_learner("ballseek")
+    r = run_ballseek(0, learner, n_episodes=2, n_orange=2, correction="answers", n_pink_after=2, **params)
     print(f"asks: pink {r.asking('pink alone', 'pink')}, orange {r.asking('orange', 'orange')}; "
           f"answered {r.taught_seconds('correction')} s; after: orange {r.orange_after}, pink {r.pink_after}")
     assert r.asking("pink alone", "pink") < 0.1 and r.asking("orange", "orange") > 0.5

@@ -21,7 +21,7 @@ def test_unknown_learner_lists_known_names():
     with pytest.raises(KeyError) as caught:
         make_learner("gpr", 2, 1)
     assert isinstance(caught.value, UnknownLearnerError)
-    assert "known learners: knn, lwpr, per-output, sogp" in str(caught.value)
+    assert "known learners: gp, knn, lwpr, per-output, sogp" in str(caught.value)
 
 
 @pytest.mark.parametrize("name", sorted(LEARNERS))

@@ -20,7 +20,7 @@ from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, S
 from services.boxes.common import fetch_spaces
 from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
                           sensor_publisher, setup_logging)
-from services.learners import LEARNERS, make_learner
+from services.learners import DEFAULT_LEARNER, LEARNERS, make_learner
 from services.pairlog import PairLog
 from services.params import parse_params
 
@@ -148,7 +148,9 @@ class LearnerNode:
 def compile_kernels(model) -> None:
     """Run a throw-away copy once, so compiled kernels are built before this learner says it is ready."""
     scratch = model.clone()
-    scratch.learn_one(np.zeros(model.n_in), np.zeros(model.n_out))
+    rng = np.random.default_rng(0)
+    for _ in range(3):  # varied samples: some learners (GP) build their model only once targets vary
+        scratch.learn_one(rng.uniform(-1.0, 1.0, model.n_in), rng.uniform(-1.0, 1.0, model.n_out))
     scratch.predict_one(np.zeros(model.n_in))
 
 
@@ -206,7 +208,7 @@ def cli(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="dogged run learner", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="learner")
-    parser.add_argument("--learner", default="lwpr", help=f"one of: {', '.join(sorted(LEARNERS))}")
+    parser.add_argument("--learner", default=DEFAULT_LEARNER, help=f"one of: {', '.join(sorted(LEARNERS))}")
     parser.add_argument("--param", action="append", help="hyper-parameter name=value (repeatable)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--state-dir", default=None, help="log pairs here and replay them after a restart")

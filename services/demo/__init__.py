@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 
+
 def free_endpoint() -> str:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -15,7 +16,7 @@ def free_endpoint() -> str:
 
 def cli(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="dogged demo", description=__doc__.splitlines()[0])
-    parser.add_argument("--learner", default="lwpr")
+    parser.add_argument("--learner", default=None, help="default: as deploy/ballseek.toml wires it")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episodes", type=int, default=6, help="student-only pink episodes (default 6)")
     parser.add_argument("--orange-episodes", type=int, default=3,

@@ -18,6 +18,7 @@ from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE
 from services.experiments.evaluate import asking_rate, error_over_time, plot_error, teacher_outputs
 from services.experiments.judges import REACH_RADIUS, nose_distance
 from services.experiments.user import ScriptedUser
+from services.experiments.wiring import wired_learner
 from services.perception.blobs import BlobDetector
 from services.perception.slots import BlobSlots
 from services.platforms.aibo.platform import MOVE_BOX
@@ -43,7 +44,7 @@ args = ["--teacher", "ballseek"]
 
 [services.learner]
 box = "learner"
-args = ["--learner", "{learner}", "--seed", "{seed}", "--state-dir", "{state}"]
+args = ["--learner", "{learner}", "--seed", "{seed}", "--state-dir", "{state}"{learner_params}]
 restart = "always"
 
 [services.arbitrator]
@@ -118,12 +119,16 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
     return figures
 
 
-def start_ballseek(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0,
-                   rate: float = BALLSEEK_RATE_HZ, layout: str = "slots") -> LiveRun:
+def start_ballseek(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0,
+                   rate: float = BALLSEEK_RATE_HZ, layout: str = "slots", learner_params: dict | None = None) -> LiveRun:
+    """learner None: the learner and settings deploy/ballseek.toml wires."""
+    if learner is None:
+        learner, learner_params = wired_learner("ballseek")
     run_dir.mkdir(parents=True, exist_ok=True)
     profile = run_dir / "ballseek.toml"
+    params = "".join(f', "--param", "{k}={v}"' for k, v in (learner_params or {}).items())
     profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=rate, seed=seed, learner=learner,
-                                      state=run_dir / "state", layout=layout))
+                                      state=run_dir / "state", layout=layout, learner_params=params))
     run = LiveRun(profile, run_dir, endpoint)
     run.wait_ready()
     return run
@@ -179,7 +184,7 @@ def correct_orange(run: LiveRun, seconds: float, seed: int, rate: float) -> None
     run.teach(False)
 
 
-def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0, episodes: int = 6,
+def run_ballseek_live(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0, episodes: int = 6,
                       episode_seconds: float = 30.0, orange_episodes: int = 3, orange_seconds: float = 20.0,
                       correction_seconds: float = 20.0, schedule=TEACHING_SCHEDULE, rate: float = BALLSEEK_RATE_HZ,
                       layout: str = "slots", answer_probability: float = 0.0, log=print) -> dict:
@@ -195,7 +200,8 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str = "lwpr", seed:
                                                                if reached is not None else f"did not reach the {ball} ball"))
 
     run = start_ballseek(run_dir, endpoint, learner, seed, rate, layout)
-    summary = {"learner": learner, "seed": seed, "layout": layout, "episodes": episodes}
+    summary = {"learner": learner or "{} {}".format(*wired_learner("ballseek")), "seed": seed, "layout": layout,
+               "episodes": episodes}
     try:
         say(f"all services ready; teaching with the pink ball (schedule {schedule}, simulated seconds)")
         t0 = run.tick()

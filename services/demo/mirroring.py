@@ -8,6 +8,7 @@ import numpy as np
 
 from bus_schema.spaces import Spaces
 from services.demo.live import LiveRun
+from services.experiments.wiring import wired_learner
 from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT
 from services.platforms.aibo.platform import JOINTS_BOX
 from services.teachers.functions import MirrorTeacher
@@ -41,9 +42,12 @@ args = ["--teacher", "mirror", "--param", "axes={axes}"]
 """
 
 
-def start_mirroring(run_dir: Path, endpoint: str, learner: str = "lwpr", seed: int = 0,
+def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0,
                     teachers: dict | None = None, learner_params: dict | None = None) -> LiveRun:
-    """teachers: service name -> axes ('both', 'pan', 'tilt'); default one teacher 'mirror' for both."""
+    """teachers: service name -> axes ('both', 'pan', 'tilt'); default one teacher 'mirror' for both.
+    learner None: the learner and settings deploy/mirroring.toml wires."""
+    if learner is None:
+        learner, learner_params = wired_learner("mirroring")
     teachers = teachers or {"mirror": "both"}
     run_dir.mkdir(parents=True, exist_ok=True)
     profile = run_dir / "mirroring.toml"

@@ -13,7 +13,7 @@ from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, BallWorld
 from services.experiments.evaluate import asking_rate
 from services.experiments.loop import Trace
 from services.experiments.user import ScriptedUser
-from services.learners import make_learner
+from services.learners import DEFAULT_LEARNER, make_learner
 
 TEACHING_SCHEDULE = ((0.0, 30.0), (40.0, 60.0), (70.0, 80.0))  # 60 s of teaching over 80 s, as in Figure 5
 TEACHING_EPISODE_SECONDS = 15.0  # the person puts the ball elsewhere after this, or once reached
@@ -123,7 +123,7 @@ class BallSeekResult:
         return float(np.sum(self._in_phase(phase)["teaching"])) / self.spaces.extra["rate_hz"]
 
 
-def run_ballseek(seed: int, learner_name: str = "lwpr", teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
+def run_ballseek(seed: int, learner_name: str = DEFAULT_LEARNER, teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
                  answer_probability: float = 0.0, n_episodes: int = 20, episode_seconds: float = 30.0,
                  n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0, n_pink_after: int = 5,
                  rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", correction: str = "scheduled",

@@ -15,7 +15,7 @@ import numpy as np
 from services.experiments.evaluate import error_over_time, teacher_outputs
 from services.experiments.loop import Trace, tick
 from services.experiments.user import ScriptedUser
-from services.learners import make_learner
+from services.learners import DEFAULT_LEARNER, make_learner
 from services.platforms.aibo.handler import MIRRORING_DISTRACTORS, Handler
 from services.platforms.aibo.joints import JOINT_INDEX
 from services.platforms.aibo.platform import AiboPlatform
@@ -58,12 +58,15 @@ class MirrorRun:
         return bool(self.trace.mode) and self.trace.mode[-1] == "unsure"
 
 
-def new_run(seed: int, learner_name: str = "lwpr", handler_seed: int | None = None, masked: bool = False,
+def new_run(seed: int, learner_name: str = DEFAULT_LEARNER, handler_seed: int | None = None, masked: bool = False,
             **hyper_parameters) -> MirrorRun:
     """masked=True: the per-output learner over `learner_name`, as deploy/mirroring.toml wires it, so
-    that a partial teacher's pairs train only its own outputs (False: the whole vector trains)."""
+    that a partial teacher's pairs train only its own outputs (False: the whole vector trains).
+    learner_name may be "per-output" itself (base= and params= in hyper_parameters, as a profile says)."""
     platform = AiboPlatform(seed=seed, command="joints", camera=False)
     platform.reset()
+    if learner_name == "per-output":
+        learner_name, hyper_parameters = hyper_parameters["base"], dict(hyper_parameters.get("params") or {})
     if masked:
         learner = make_learner("per-output", 18, 18, seed=seed, base=learner_name, params=hyper_parameters)
     else:
@@ -116,11 +119,13 @@ def teach_seconds_until(curve: list, bound: float = ERROR_BOUND) -> float | None
     return answer
 
 
-def one_teacher(seed: int, learner_name: str = "lwpr", max_teach: float = 12.0, check_every: float = 0.5,
-                held_out_seconds: float = 10.0, alone_seconds: float = 10.0, **hyper_parameters) -> MirrorResult:
+def one_teacher(seed: int, learner_name: str = DEFAULT_LEARNER, max_teach: float = 12.0, check_every: float = 0.5,
+                held_out_seconds: float = 10.0, alone_seconds: float = 10.0, masked: bool = True,
+                **hyper_parameters) -> MirrorResult:
     """Paper V.A with one teacher: teach in slices of `check_every` seconds, checking the student on
-    the held-out trajectory after each; then `alone_seconds` of the student alone (for Figure 5)."""
-    run = new_run(seed, learner_name, **hyper_parameters)
+    the held-out trajectory after each; then `alone_seconds` of the student alone (for Figure 5).
+    masked=True (as wired): the per-output learner; the teacher teaches every output anyway."""
+    run = new_run(seed, learner_name, masked=masked, **hyper_parameters)
     teacher = {"teacher/mirror": MirrorTeacher(run.platform.spaces, axes="both")}
     checker = AiboPlatform(seed=seed, command="joints", camera=False)
     curve = []
@@ -135,7 +140,7 @@ def one_teacher(seed: int, learner_name: str = "lwpr", max_teach: float = 12.0, 
     return MirrorResult(teach_seconds_until(curve), curve, curve[-1][1], run.trace)
 
 
-def two_teachers(seed: int, learner_name: str = "lwpr", seconds_each: float = 10.0, held_out_seconds: float = 10.0,
+def two_teachers(seed: int, learner_name: str = DEFAULT_LEARNER, seconds_each: float = 10.0, held_out_seconds: float = 10.0,
                  alone_seconds: float = 10.0, masked: bool = False, **hyper_parameters) -> MirrorResult:
     """Paper V.A with two partial teachers in turn: pan for `seconds_each`, then tilt; the student
     must then mirror both axes. curve: held-out error after the pan teacher and after both.

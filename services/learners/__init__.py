@@ -11,12 +11,16 @@ from __future__ import annotations
 
 from .base import Learner, Prediction, Predictions
 from .errors import LearnerInputError, UnknownLearnerError
+from .gp import GP
 from .knn import KNN
 from .lwpr import LWPR
 from .per_output import PerOutput
 from .sogp import SOGP
 
-LEARNERS: dict[str, type[Learner]] = {"lwpr": LWPR, "sogp": SOGP, "knn": KNN, "per-output": PerOutput}
+# the learner the system is wired with (deploy profiles, experiments, demo, the learner box)
+DEFAULT_LEARNER = "gp"
+
+LEARNERS: dict[str, type[Learner]] = {"lwpr": LWPR, "sogp": SOGP, "knn": KNN, "gp": GP, "per-output": PerOutput}
 
 
 def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parameters) -> Learner:
@@ -43,16 +47,17 @@ def warm_up() -> float:
     import numpy as np
 
     start = time.perf_counter()
+    xs = np.random.default_rng(0).uniform(-1.0, 1.0, (4, 2))
     for cls in LEARNERS.values():
         model = cls(2, 1)
-        model.learn_one(np.zeros(2), np.zeros(1))
-        model.learn_many(np.zeros((2, 2)), np.zeros((2, 1)))
-        model.predict_one(np.zeros(2))
-        model.predict_many(np.zeros((2, 2)))
+        model.learn_one(xs[0], xs[0, :1])  # varied targets: a GP builds its factor only once they vary
+        model.learn_many(xs[1:], xs[1:, :1])
+        model.predict_one(xs[0])
+        model.predict_many(xs)
     return time.perf_counter() - start
 
 
 __all__ = [
-    "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction", "Predictions",
+    "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction", "Predictions",
     "SOGP", "UnknownLearnerError", "make_learner", "warm_up",
 ]

@@ -69,6 +69,37 @@ def describe_non_finite(array: np.ndarray, what: str) -> str:
     return f"{where} is {value}; learners need finite numbers, check the upstream sensor or filter"
 
 
+class TaughtRange:
+    """Per output, the range of the values taught. An answer is held within it plus MARGIN of its
+    span: whatever a model makes of few or collinear samples, the robot is never sent far beyond
+    what it was shown. An output never taught is not held."""
+
+    MARGIN = 0.1
+
+    def __init__(self, n_out: int):
+        self.low, self.high = np.full(n_out, np.inf), np.full(n_out, -np.inf)
+        self.floor, self.ceiling = np.full(n_out, -np.inf), np.full(n_out, np.inf)
+
+    def learn(self, ys: np.ndarray) -> None:
+        ys = ys.reshape(-1, len(self.low))
+        if len(ys) == 0:
+            return
+        self.low, self.high = np.minimum(self.low, ys.min(0)), np.maximum(self.high, ys.max(0))
+        span = self.high - self.low
+        self.floor, self.ceiling = self.low - self.MARGIN * span, self.high + self.MARGIN * span
+
+    @property
+    def span(self) -> np.ndarray:
+        """high - low; 0 for an output never taught."""
+        return np.where(self.high >= self.low, self.high - self.low, 0.0)
+
+    def bound(self, y: np.ndarray) -> np.ndarray:
+        return np.clip(y, self.floor, self.ceiling)
+
+    def middle(self) -> np.ndarray:
+        return np.where(self.high >= self.low, (self.low + self.high) / 2, 0.0)
+
+
 class Learner:
     """Base of every learner; see the module docstring for what a subclass provides."""
 
@@ -79,6 +110,7 @@ class Learner:
         self.n_out = int(n_out)
         self.seed = int(seed)
         self._n_learned = 0
+        self._taught = TaughtRange(self.n_out)
 
     # --- the contract -------------------------------------------------------------
     def learn_one(self, x, y) -> None:
@@ -86,6 +118,7 @@ class Learner:
         x = as_vector(x, self.n_in, "inputs")
         y = as_vector(y, self.n_out, "outputs")
         self._learn_one(x, y)
+        self._taught.learn(y)
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
@@ -93,16 +126,37 @@ class Learner:
         xs = as_matrix(xs, self.n_in, "inputs")
         ys = as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0])
         self._learn_many(xs, ys)
+        self._taught.learn(ys)
         self._n_learned += xs.shape[0]
 
     def predict_one(self, x) -> Prediction:
         x = as_vector(x, self.n_in, "inputs")
-        many = self._predict_many(x[None, :])
+        many = self._sane(self._predict_many(x[None, :]))
         interval = None if many.interval is None else many.interval[0]
         return Prediction(many.y[0], float(many.confidence[0]), interval)
 
     def predict_many(self, xs) -> Predictions:
-        return self._predict_many(as_matrix(xs, self.n_in, "inputs"))
+        return self._sane(self._predict_many(as_matrix(xs, self.n_in, "inputs")))
+
+    def _sane(self, p: Predictions) -> Predictions:
+        """Answers held to the taught range (`_bound`), and never NaN or inf: a row a model could not
+        answer gets the middle of the taught range with confidence 0 (its model is at fault; the
+        robot must not be)."""
+        y, confidence = self._bound(p.y), np.nan_to_num(p.confidence, nan=0.0, posinf=0.0, neginf=0.0)
+        broken = ~np.isfinite(y).all(axis=1)
+        if broken.any():
+            y = np.where(broken[:, None], self._taught.middle(), y)
+            confidence = np.where(broken, 0.0, confidence)
+        return Predictions(y, np.clip(confidence, 0.0, 1.0), p.interval)
+
+    def _sane_one(self, y: np.ndarray, confidence: float, interval: np.ndarray | None) -> Prediction:
+        """`_sane` for one answer, for learners with a fast predict_one of their own."""
+        many = self._sane(Predictions(y[None, :], np.array([confidence]), None if interval is None else interval[None, :]))
+        return Prediction(many.y[0], float(many.confidence[0]), None if interval is None else many.interval[0])
+
+    def _bound(self, y: np.ndarray) -> np.ndarray:
+        """Hold answers to the taught range; a learner with a rule of its own overrides this."""
+        return self._taught.bound(y)
 
     @property
     def n_learned(self) -> int:

@@ -138,6 +138,7 @@ class LWPR(Learner):
             status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
         if status < 0:
             self._reject(status, x, y)
+        self._taught.learn(y)
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
@@ -151,6 +152,7 @@ class LWPR(Learner):
             status, row = kernels.learn_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs, ys, row)
             if status == 1:
                 self._grow()
+        self._taught.learn(ys)
         self._n_learned += xs.shape[0]
 
     def _reject(self, status: int, x: np.ndarray, y: np.ndarray) -> None:
@@ -182,6 +184,9 @@ class LWPR(Learner):
         confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval)
         if confidence < 0.0:  # the kernel found a non-finite input
             as_vector(x, self.n_in, "inputs")
+        np.clip(y, self._taught.floor, self._taught.ceiling, out=y)
+        if not np.isfinite(y).all():
+            return self._sane_one(y, confidence, interval)
         # tuple.__new__ skips NamedTuple's Python-level __new__: 0.2 µs of a 2.5 µs call
         return _new_tuple(Prediction, (y, confidence, interval))
 

@@ -35,11 +35,13 @@ class InputEnvelope:
         self.mean += delta * n / total
         self.count = total
 
-    def discount(self, xs: np.ndarray, scale: float) -> np.ndarray:
+    def discount(self, xs: np.ndarray, scale: float, inputs: np.ndarray | None = None) -> np.ndarray:
         """Per row of xs, the factor in (0, 1] its confidence is multiplied by (1: within
-        experience, or scale 0: novelty off)."""
+        experience, or scale 0: novelty off); `inputs` (a mask) limits it to those inputs."""
         if scale <= 0.0 or self.count == 0:
             return np.ones(xs.shape[0])
         sd = np.sqrt(self.sum_sq / self.count)
         excess = np.maximum(np.abs(xs - self.mean) - EXPERIENCED_SDS * sd, 0.0)
+        if inputs is not None:
+            excess = excess[:, inputs]
         return np.exp(-0.5 * (excess * excess).sum(axis=1) / (scale * scale))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Learner, Predictions, as_vector
+from .base import Learner, Prediction, Predictions, as_vector
 
 
 class PerOutput(Learner):
@@ -35,12 +35,23 @@ class PerOutput(Learner):
         for i, part in enumerate(self._parts):
             part.learn_one(x, y[i:i + 1])
 
+    def predict_one(self, x) -> Prediction:
+        x = as_vector(x, self.n_in, "inputs")
+        answers = [part.predict_one(x) for part in self._parts]  # each part's own fast path
+        taught = [a.confidence for a, part in zip(answers, self._parts) if part.n_learned > 0]
+        return Prediction(np.array([a.y[0] for a in answers]), min(taught) if taught else 0.0)
+
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         answers = [part.predict_many(xs) for part in self._parts]
         y = np.hstack([a.y for a in answers])
-        # the least supported output decides how sure the student is
-        confidence = np.min(np.vstack([a.confidence for a in answers]), axis=0)
+        # the least supported taught output decides how sure the student is; an output no teacher
+        # ever spoke for is nobody's lesson (a pan-only teacher would otherwise leave it unsure for ever)
+        taught = [a.confidence for a, part in zip(answers, self._parts) if part.n_learned > 0]
+        confidence = np.min(np.vstack(taught), axis=0) if taught else np.zeros(len(xs))
         return Predictions(y, confidence)
+
+    def _bound(self, y: np.ndarray) -> np.ndarray:
+        return y  # each part holds its own answers
 
     @property
     def size(self) -> int:

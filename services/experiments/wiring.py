@@ -1,0 +1,25 @@
+"""The learner a deploy profile wires, read from the profile itself: the experiments measure the
+system as a user starts it, and one place says which learner and which settings."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from services.learners import DEFAULT_LEARNER
+from services.params import parse_params
+from services.supervisor.profile import load_profile
+
+DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
+
+
+def wired_learner(profile: str) -> tuple[str, dict]:
+    """(learner name, hyper-parameters) of the learner service in deploy/<profile>.toml."""
+    services = load_profile(DEPLOY / f"{profile}.toml").services
+    spec = next((s for s in services if s.box == "learner"), None)
+    if spec is None:
+        raise ValueError(f"deploy/{profile}.toml starts no learner")
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--learner", default=DEFAULT_LEARNER)
+    parser.add_argument("--param", action="append")
+    args, _ = parser.parse_known_args(spec.args)
+    return args.learner, parse_params(args.param)

@@ -1,0 +1,117 @@
+"""Which inputs matter, and how much the outputs vary: the GP's hyper-parameters by maximum a
+posteriori evidence (Rasmussen & Williams 2006, ch. 5), on normalised data.
+
+The kernel is a squared exponential with one length scale per input (automatic relevance
+determination): an input whose length scale grows long stops mattering, so distractors that move
+while the robot is taught are learned to be ignored. Priors keep a fit on few, correlated samples
+sane: length scales log-normal around sqrt(n) (the width at which every input counts a little),
+and the signal's amplitude log-normal around the spread of the taught outputs, so that where the
+learner has seen nothing its doubt is as large as what it has seen (a fit left free shrinks the
+amplitude on smooth streams and the robot would drive on, sure of itself, where it knows nothing).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import solve_triangular
+from scipy.optimize import minimize
+
+LOG_ELL_BOUNDS = (-3.0, 6.0)  # length scales from 0.05 to 400 input standard deviations
+LOG_SF_BOUNDS = (-2.0, 2.0)
+# length scales' prior median, in log units beyond sqrt(n) (the width at which every input counts a
+# little): an input matters once the teaching shows it does, so a few samples in which the legs moved
+# along one line do not make the robot doubt whether its legs matter to its head
+SPARSITY = 2.0
+AMPLITUDE_PRIOR_SD = 0.1  # of log amplitude, around the taught outputs' spread
+SHARE_PRIOR_SD = 3.0  # of the linear share's logit, around a half
+LOGIT_SHARE_BOUNDS = (-12.0, 12.0)
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """A fit in normalised units: log length scales (per varying input), log amplitude, log noise,
+    and the linear part's share of the prior variance as a logit."""
+
+    log_ell: np.ndarray
+    log_sf: float
+    log_sn: float
+    logit_linear: float
+
+
+def kernel_shapes(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The unit squared exponential and the linear part z z' on centred, relevance-scaled inputs."""
+    sq = (z * z).sum(1)
+    gram = z @ z.T
+    return np.exp(-0.5 * np.maximum(sq[:, None] + sq[None, :] - 2.0 * gram, 0.0)), gram
+
+
+def linear_share(logit: float) -> float:
+    return 1.0 / (1.0 + math.exp(-logit))
+
+
+def negative_log_posterior(theta: np.ndarray, xs: np.ndarray, ys: np.ndarray, prior_log_ell: float,
+                           prior_ell_sd: float, log_sn_floor: float) -> tuple[float, np.ndarray]:
+    """-log p(ys | xs, theta) - log p(theta) and its gradient; ys (n, k) share the kernel, xs are
+    centred. theta = (log ell per input, log sf, log sn, logit of the linear share)."""
+    d = xs.shape[1]
+    ell, sf2 = np.exp(theta[:d]), math.exp(2.0 * theta[d])
+    sn2, rho = math.exp(2.0 * max(theta[d + 1], log_sn_floor)), linear_share(theta[d + 2])
+    z = xs / ell
+    smooth, linear = kernel_shapes(z)
+    smooth *= sf2 * (1.0 - rho)
+    linear *= sf2 * rho
+    gram = smooth + linear + sn2 * np.eye(len(xs))
+    try:
+        chol = np.linalg.cholesky(gram)
+    except np.linalg.LinAlgError:
+        return 1e12, np.zeros_like(theta)
+    inverse_chol = solve_triangular(chol, np.eye(len(xs)), lower=True)
+    inverse = inverse_chol.T @ inverse_chol
+    alpha = inverse @ ys
+    k = ys.shape[1]
+    value = 0.5 * float((ys * alpha).sum()) + k * float(np.log(np.diag(chol)).sum())
+    w = alpha @ alpha.T - k * inverse  # d value / d gram = -w / 2
+    m = w * smooth
+    grad = np.zeros_like(theta)
+    # d smooth / d log ell_i = smooth * (z_ai - z_bi)^2 and d linear / d log ell_i = -2 linear * z_ai z_bi,
+    # summed against w without forming either per input
+    grad[:d] = -0.5 * (2.0 * (z * z).T @ m.sum(1) - 2.0 * (z * (m @ z)).sum(0))
+    grad[:d] += sf2 * rho * (z * (w @ z)).sum(0)
+    w_linear = float((w * linear).sum())
+    grad[d] = -float(m.sum()) - w_linear
+    grad[d + 1] = -float(np.trace(w)) * sn2 if theta[d + 1] > log_sn_floor else 0.0
+    grad[d + 2] = -0.5 * ((1.0 - rho) * w_linear - rho * float(m.sum()))
+    ell_dev = (theta[:d] - prior_log_ell) / prior_ell_sd
+    share_dev = theta[d + 2] / SHARE_PRIOR_SD
+    value += 0.5 * float(ell_dev @ ell_dev) + 0.5 * (theta[d] / AMPLITUDE_PRIOR_SD) ** 2 + 0.5 * share_dev ** 2
+    grad[:d] += ell_dev / prior_ell_sd
+    grad[d] += theta[d] / AMPLITUDE_PRIOR_SD ** 2
+    grad[d + 2] += share_dev / SHARE_PRIOR_SD
+    return value, grad
+
+
+def fit(xs: np.ndarray, ys: np.ndarray, start: Evidence, prior_ell_sd: float, noise_floor: float,
+        max_iterations: int) -> Evidence:
+    """The MAP hyper-parameters for normalised xs (n, d) and ys (n, k), from `start`."""
+    d = xs.shape[1]
+    prior_log_ell = math.log(math.sqrt(d)) + SPARSITY
+    log_sn_floor = 0.5 * math.log(noise_floor)
+    theta = np.concatenate([start.log_ell, [start.log_sf, max(start.log_sn, log_sn_floor), start.logit_linear]])
+    bounds = [LOG_ELL_BOUNDS] * d + [LOG_SF_BOUNDS, (log_sn_floor, 0.0), LOGIT_SHARE_BOUNDS]
+    theta = np.clip(theta, [b[0] for b in bounds], [b[1] for b in bounds])
+    result = minimize(negative_log_posterior, theta, jac=True, method="L-BFGS-B", bounds=bounds,
+                      args=(xs, ys, prior_log_ell, prior_ell_sd, log_sn_floor),
+                      options={"maxiter": max_iterations})
+    best = result.x if np.all(np.isfinite(result.x)) else theta
+    return Evidence(best[:d].copy(), float(best[d]), float(best[d + 1]), float(best[d + 2]))
+
+
+def prior_start(d: int) -> Evidence:
+    """Where a first fit starts: every input equally relevant, amplitude as taught, a little noise,
+    the prior variance shared evenly between the smooth and the linear part."""
+    return Evidence(np.full(d, math.log(math.sqrt(d))), 0.0, math.log(0.1), 0.0)
+
+
+__all__ = ["Evidence", "fit", "linear_share", "negative_log_posterior", "prior_start"]

@@ -1,0 +1,87 @@
+"""The GP learner's promises: it finds the inputs that matter, holds what it does not trust to the
+taught range, extends a map the evidence says is linear, stays finite on degenerate streams."""
+import numpy as np
+
+from services.learners import make_learner
+from services.learners.unknown_tasks import draw_task
+
+UNIT = (-np.ones(8), np.ones(8), -np.ones(2), np.ones(2))
+
+
+def taught(task, seconds=40.0, kind="trajectory"):
+    model = make_learner("gp", task.n_in, task.n_out, seed=0)
+    xs = task.stream(seconds, 30.0, kind)
+    model.learn_many(xs, task.target(xs))
+    return model, xs
+
+
+def test_relevance_picks_the_inputs_the_teaching_depends_on():
+    task = draw_task(3, *UNIT, relevant=(2, 2), taught=(2, 2))
+    model, xs = taught(task)
+    relevance = model.relevance * xs.std(0)  # per input standard deviation
+    ignored = np.delete(relevance, task.relevant)
+    assert relevance[list(task.relevant)].min() > 10 * ignored.max(), (task.relevant, relevance.round(3))
+
+
+def test_far_from_the_teaching_it_is_unsure_and_holds_to_the_taught_range():
+    task = draw_task(4, *UNIT, relevant=(2, 2), taught=(2, 2))
+    model, xs = taught(task)
+    far = np.tile(xs.mean(0), (20, 1))
+    far[:, list(task.relevant)] = np.random.default_rng(0).choice([-6.0, 6.0], (20, 2))
+    p = model.predict_many(far)
+    ys = task.target(xs)
+    span = ys.max(0) - ys.min(0)
+    assert np.all(p.y <= ys.max(0) + 0.1 * span + 1e-12) and np.all(p.y >= ys.min(0) - 0.1 * span - 1e-12)
+    assert np.all(p.confidence < 0.25), p.confidence
+
+
+def test_a_linear_map_shown_over_part_of_its_range_extends_beyond_it():
+    rng = np.random.default_rng(1)
+    xs = rng.uniform(-1.0, 1.0, (60, 6))
+    xs[:, 0] = rng.uniform(-0.3, 0.3, 60)  # the relevant input shown over a third of its range
+    model = make_learner("gp", 6, 1, seed=0)
+    model.learn_many(xs, 0.8 * xs[:, :1] + 0.1)
+    query = np.zeros((2, 6))
+    query[:, 0] = [-0.9, 0.9]
+    assert np.allclose(model.predict_many(query).y[:, 0], [-0.62, 0.82], atol=0.02)
+
+
+def test_an_output_never_moved_costs_no_factor_and_answers_its_value():
+    model = make_learner("gp", 4, 2, seed=0)
+    xs = np.random.default_rng(2).uniform(-1, 1, (50, 4))
+    model.learn_many(xs, np.tile([0.3, -1.0], (50, 1)))
+    assert not model._factored and model.size == 50
+    assert np.array_equal(model.predict_many(xs).y, np.tile([0.3, -1.0], (50, 1)))
+    model.learn_one(xs[0], [0.5, -1.0])  # something varies: the posterior is built from the memory
+    assert model._factored and model.size == 51
+
+
+def test_degenerate_streams_never_give_nan():
+    rng = np.random.default_rng(3)
+    streams = {
+        "repeated sample": np.tile(rng.uniform(-1, 1, 5), (300, 1)),
+        "constant input": np.column_stack([rng.uniform(-1, 1, (300, 4)), np.zeros(300)]),
+        "collinear inputs": np.repeat(rng.uniform(-1, 1, (300, 1)), 5, axis=1),
+        "huge inputs": rng.uniform(-1e4, 1e4, (300, 5)),
+        "tiny inputs": rng.uniform(-1e-6, 1e-6, (300, 5)),
+    }
+    for name, xs in streams.items():
+        model = make_learner("gp", 5, 1, seed=0, memory=64)
+        model.learn_many(xs, np.sin(xs[:, :1] / (np.abs(xs).max() + 1e-300)) + 0.01 * rng.normal(size=(300, 1)))
+        p = model.predict_many(np.vstack([xs[:20], rng.uniform(-2, 2, (20, 5)) * np.abs(xs).max()]))
+        assert np.isfinite(p.y).all() and np.isfinite(p.confidence).all(), name
+
+
+def test_thinning_keeps_what_was_taught_long_ago():
+    def target(xs):
+        return np.sin(3 * xs[:, :1]) + 0.5 * xs[:, 1:2]
+
+    model = make_learner("gp", 2, 1, seed=0, memory=100)
+    rng = np.random.default_rng(4)
+    old = rng.uniform([-1, -1], [0, 1], (200, 2))
+    model.learn_many(old, target(old))
+    new = rng.uniform([0, -1], [1, 1], (2000, 2))  # a long lesson elsewhere, 20 memories' worth
+    model.learn_many(new, target(new))
+    assert model.size <= 100
+    check = rng.uniform([-1, -1], [-0.1, 1], (200, 2))
+    assert np.sqrt(np.mean((model.predict_many(check).y - target(check)) ** 2)) < 0.05
