@@ -5,9 +5,9 @@ import pytest
 
 from services.learners.base import Learner, Predictions
 from services.learners.checks import (
-    check_confidence_in_unit_interval, check_confidence_knows_what_it_knows,
-    check_inputs_not_mutated, check_memory_bounded, check_no_aliasing,
-    check_predict_before_learn,
+    check_confidence_doubts_a_query_off_the_span, check_confidence_in_unit_interval,
+    check_confidence_knows_what_it_knows, check_inputs_not_mutated, check_memory_bounded, check_no_aliasing,
+    check_no_nan_on_degenerate_streams, check_predict_before_learn, check_sane_on_robot_streams,
 )
 
 
@@ -75,6 +75,28 @@ class ConfidentBeforeLearning(MeanLearner):
         return Predictions(np.zeros((len(xs), self.n_out)), np.full(len(xs), 0.5))
 
 
+class Extrapolating(MeanLearner):
+    """Follows the inputs linearly wherever they go (what LWPR's local fits did on collinear data),
+    overriding the public verb as a learner with fast paths could."""
+
+    def predict_many(self, xs):
+        p = super().predict_many(xs)
+        return Predictions(p.y + xs[:, :1], np.zeros(len(xs)))
+
+
+class NaNModel(MeanLearner):
+    def _predict_many(self, xs):
+        p = super()._predict_many(xs)
+        return Predictions(np.full_like(p.y, np.nan), p.confidence)
+
+
+class SureOffTheSpan(MeanLearner):
+    """Sure wherever an input is within its own range, whatever the others do."""
+
+    def _predict_many(self, xs):
+        return Predictions(super()._predict_many(xs).y, np.where(np.abs(xs).max(1) <= 1.0, 0.9, 0.0))
+
+
 def factory(cls):
     return lambda seed=0: cls(3, 2, seed=seed)
 
@@ -86,6 +108,10 @@ def factory(cls):
     (check_confidence_in_unit_interval, OutOfRange, r"confidence must be finite and in \[0, 1\]"),
     (check_memory_bounded, Hoarding, "model kept growing on a stationary stream"),
     (check_predict_before_learn, ConfidentBeforeLearning, "an unlearned model predicts zeros, confidence 0"),
+    (check_sane_on_robot_streams, Extrapolating, "beyond the taught range"),
+    (check_sane_on_robot_streams, Overconfident, "confidence far from the teaching"),
+    (check_no_nan_on_degenerate_streams, NaNModel, "answered NaN or inf"),
+    (check_confidence_doubts_a_query_off_the_span, SureOffTheSpan, "two inputs apart 0.90, not below 0.25"),
 ])
 def test_check_fails_a_broken_learner(check, broken, reason):
     with pytest.raises(AssertionError, match=reason):

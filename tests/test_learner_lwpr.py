@@ -84,9 +84,12 @@ def test_confidence_falls_where_an_input_never_varied():
     assert np.allclose(novel.y, _taught_with_one_input_constant(novelty_scale=0.0).predict_one([0.3, -0.2, 1.0]).y)
 
 
-def test_without_novelty_scale_the_activation_alone_misses_it():
-    model = _taught_with_one_input_constant(novelty_scale=0.0)
-    assert model.predict_one([0.3, -0.2, 1.0]).confidence > 0.5
+def test_without_novelty_scale_the_exact_fits_leverage_still_sees_it():
+    """The activation alone misses it (the metric never narrows along an input that never varied);
+    the exact fit has no data along that axis, so the query lies off its span."""
+    model = _taught_with_one_input_constant(novelty_scale=0.0, exact_fit=True)
+    assert model.predict_one([0.3, -0.2, 1.0]).confidence < 0.25
+    assert _taught_with_one_input_constant(novelty_scale=0.0, exact_fit=False).predict_one([0.3, -0.2, 1.0]).confidence > 0.5
 
 
 def test_snapshot_from_before_novelty_scale_restores_with_its_default():

@@ -20,13 +20,35 @@ def test_batches_merge_to_the_whole_stream_mean_and_spread():
 
 def test_discount_is_one_within_experience_and_falls_beyond_it():
     envelope = InputEnvelope(2)
-    assert envelope.discount(np.ones((1, 2)), 0.25).tolist() == [1.0]  # nothing learned: no opinion
+    assert envelope.beyond_inputs(np.ones((1, 2)), 0.25).tolist() == [1.0]  # nothing learned: no opinion
     envelope.learn(np.array([[-1.0, 0.0], [1.0, 0.0]]))  # sd 1 along the first input, 0 along the second
-    inside, edge, beyond, off = envelope.discount(np.array([[2.9, 0.0], [EXPERIENCED_SDS, 0.0], [3.25, 0.0],
+    inside, edge, beyond, off = envelope.beyond_inputs(np.array([[2.9, 0.0], [EXPERIENCED_SDS, 0.0], [3.25, 0.0],
                                                             [0.0, 0.25]]), 0.25)
     assert inside == edge == 1.0
     assert beyond == pytest.approx(np.exp(-0.5)) and off == pytest.approx(np.exp(-0.5))
-    assert envelope.discount(np.array([[0.0, 5.0]]), 0.0).tolist() == [1.0]  # scale 0: off
+    assert envelope.beyond_inputs(np.array([[0.0, 5.0]]), 0.0).tolist() == [1.0]  # scale 0: off
+
+
+def test_beyond_span_sees_two_inputs_that_never_parted():
+    rng = np.random.default_rng(1)
+    line = rng.uniform(-1.0, 1.0, 500)
+    envelope = InputEnvelope(2)
+    envelope.learn(np.column_stack([line, line + rng.normal(0.0, 0.01, 500)]))
+    along, apart = envelope.beyond_span(np.array([[0.9, 0.9], [0.5, -0.5]]), 0.25)
+    assert along == 1.0 and apart < 0.05
+    # each input alone stays within its own range, so the axis-aligned form cannot tell
+    assert envelope.beyond_inputs(np.array([[0.5, -0.5]]), 0.25).tolist() == [1.0]
+
+
+def test_snapshot_of_an_envelope_that_kept_only_spreads_restores():
+    envelope = InputEnvelope(2)
+    envelope.learn(np.array([[-1.0, 0.0], [1.0, 2.0]]))
+    state = dict(envelope.__dict__, sum_sq=envelope.sum_sq)
+    del state["scatter"], state["_axes"]
+    old = InputEnvelope.__new__(InputEnvelope)
+    old.__setstate__(state)
+    np.testing.assert_allclose(old.sum_sq, envelope.sum_sq)
+    assert old.beyond_span(np.array([[0.0, 1.0]]), 0.25).tolist() == [1.0]
 
 
 @pytest.mark.parametrize("cls", [SOGP, KNN])

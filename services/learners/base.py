@@ -111,6 +111,7 @@ class Learner:
         self.seed = int(seed)
         self._n_learned = 0
         self._taught = TaughtRange(self.n_out)
+        self._n_broken = 0  # answers the model gave as NaN or inf, replaced by _sane
 
     # --- the contract -------------------------------------------------------------
     def learn_one(self, x, y) -> None:
@@ -147,6 +148,7 @@ class Learner:
         if broken.any():
             y = np.where(broken[:, None], self._taught.middle(), y)
             confidence = np.where(broken, 0.0, confidence)
+            self._n_broken += int(broken.sum())
         return Predictions(y, np.clip(confidence, 0.0, 1.0), p.interval)
 
     def _sane_one(self, y: np.ndarray, confidence: float, interval: np.ndarray | None) -> Prediction:
@@ -161,6 +163,11 @@ class Learner:
     @property
     def n_learned(self) -> int:
         return self._n_learned
+
+    @property
+    def n_broken(self) -> int:
+        """Answers the model itself gave as NaN or inf (the robot got the taught middle, unsure)."""
+        return self._n_broken
 
     @property
     def size(self) -> int:

@@ -11,18 +11,23 @@ from typing import Callable
 
 import numpy as np
 
-from .base import Learner
+from .base import Learner, TaughtRange
 from .errors import LearnerInputError
+from .unknown_tasks import draw_task
 
 Factory = Callable[..., Learner]
 N_IN, N_OUT = 3, 2
 
 
+def smooth_map(xs: np.ndarray) -> np.ndarray:
+    """A smooth 3-input, 2-output map."""
+    return np.stack([np.sin(2.0 * xs[:, 0]) + xs[:, 1], xs[:, 2] * xs[:, 0]], axis=1)
+
+
 def smooth_task(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """A smooth 3-input, 2-output map on [-1, 1]^3."""
+    """smooth_map on n points drawn uniformly from [-1, 1]^3."""
     xs = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, N_IN))
-    ys = np.stack([np.sin(2.0 * xs[:, 0]) + xs[:, 1], xs[:, 2] * xs[:, 0]], axis=1)
-    return xs, ys
+    return xs, smooth_map(xs)
 
 
 def trained(make: Factory, n: int = 300, seed: int = 0) -> Learner:
@@ -150,8 +155,9 @@ def check_confidence_knows_what_it_knows(make: Factory) -> None:
 def check_confidence_doubts_an_input_that_never_varied(make: Factory) -> None:
     """Taught with the last input held at 0, a 1 there is new (the orange ball after pink alone):
     the robot must ask (< 0.25) rather than drive on what it learned, and stay sure at 0."""
-    xs, ys = smooth_task(400)
+    xs = smooth_task(400)[0]
     xs[:, -1] = 0.0
+    ys = smooth_map(xs)  # the map of the inputs as taught
     model = make()
     for x, y in zip(xs, ys):
         model.learn_one(x, y)
@@ -187,6 +193,77 @@ def check_error_messages(make: Factory) -> None:
     assert_rejected(lambda: model.learn_one(np.array([0.0, 0.0, np.nan]), np.zeros(N_OUT)), "input 2 is nan")
 
 
+def robot_tasks():
+    """Three random tasks of the checks' shape on unit ranges, both outputs taught, with the stream
+    each is taught on: smooth trajectories (one input may be dragged along by another) or i.i.d."""
+    box = (-np.ones(N_IN), np.ones(N_IN), -np.ones(N_OUT), np.ones(N_OUT))
+    for number, kind in ((1, "trajectory"), (2, "trajectory"), (3, "iid")):
+        task = draw_task(number, *box, relevant=(2, 2), taught=(N_OUT, N_OUT))
+        yield task, task.stream(20.0, 30.0, kind)
+
+
+def check_sane_on_robot_streams(make: Factory) -> None:
+    """Taught a random task on a robot-like stream: finite answers on what follows, and far from the
+    teaching (relevant inputs 4 to 10 motion amplitudes away) answers held to the taught range plus
+    10 % of its span and confidence below the paper's 'unsure' 0.25."""
+    for task, xs in robot_tasks():
+        model = make()
+        ys = task.target(xs)
+        model.learn_many(xs[:450], ys[:450])
+        ahead = model.predict_many(xs[450:])
+        assert np.isfinite(ahead.y).all() and np.isfinite(ahead.confidence).all(), "non-finite answer on the stream"
+        far = np.tile(xs.mean(0), (40, 1))
+        rng = np.random.default_rng(task.seed)
+        for i in task.relevant:
+            far[:, i] = task.motions[i].centre + task.motions[i].amplitude * rng.choice([-1, 1], 40) * rng.uniform(4, 10, 40)
+        p = model.predict_many(far)
+        held = TaughtRange(N_OUT)
+        held.learn(ys[:450])
+        excess = np.max(np.maximum(p.y - held.ceiling, held.floor - p.y))
+        assert excess <= 1e-9, f"answers {excess:.3g} beyond the taught range + 10 % far from the teaching"
+        assert np.all(p.confidence < 0.25), f"confidence far from the teaching up to {p.confidence.max():.2f}"
+
+
+def check_no_nan_on_degenerate_streams(make: Factory) -> None:
+    """The model itself gives no NaN or inf (none the base class had to replace) on streams that break
+    naive numerics: one sample repeated, an input that never moves, inputs moving as one, huge or tiny
+    input scales, targets that never change."""
+    rng = np.random.default_rng(5)
+    line = rng.uniform(-1, 1, (300, 1))
+    streams = {
+        "one sample repeated": np.tile(rng.uniform(-1, 1, N_IN), (300, 1)),
+        "an input that never moves": np.column_stack([rng.uniform(-1, 1, (300, N_IN - 1)), np.full(300, 0.3)]),
+        "inputs moving as one": np.tile(line, (1, N_IN)),
+        "huge inputs": rng.uniform(-1e4, 1e4, (300, N_IN)),
+        "tiny inputs": rng.uniform(-1e-6, 1e-6, (300, N_IN)),
+    }
+    for name, xs in streams.items():
+        for ys in (np.sin(xs[:, :N_OUT] / np.abs(xs).max()), np.full((300, N_OUT), 0.7)):
+            model = make()
+            model.learn_many(xs, ys)
+            queries = np.vstack([xs[:30], rng.uniform(-3, 3, (30, N_IN)) * np.abs(xs).max()])
+            p = model.predict_many(queries)
+            assert model.n_broken == 0, f"{name}: the model answered NaN or inf {model.n_broken} times"
+            assert np.isfinite(p.y).all() and np.isfinite(p.confidence).all(), f"{name}: non-finite answer"
+
+
+def check_confidence_doubts_a_query_off_the_span(make: Factory) -> None:
+    """Taught while input 1 moved with input 0 (a reading dragged along), a query where they part is
+    off the span of the data: the robot must ask, not trust a fit that could not tell them apart."""
+    rng = np.random.default_rng(6)
+    xs = rng.uniform(-1, 1, (400, N_IN))
+    xs[:, 1] = xs[:, 0] + rng.normal(0, 0.01, 400)
+    ys = np.stack([np.sin(2 * xs[:, 0]) + xs[:, 2], xs[:, 1] * xs[:, 2]], axis=1)
+    model = make()
+    model.learn_many(xs, ys)
+    apart = xs[:50].copy()
+    apart[:, 0] = rng.choice([-0.8, 0.8], 50)
+    apart[:, 1] = -apart[:, 0]
+    on, off = np.median(model.predict_many(xs[:50]).confidence), np.median(model.predict_many(apart).confidence)
+    assert on > 0.5, f"median confidence on the training inputs {on:.2f} <= 0.5"
+    assert off < 0.25, f"median confidence with the two inputs apart {off:.2f}, not below 0.25"
+
+
 def assert_rejected(call: Callable[[], object], message: str | None = None) -> None:
     try:
         call()
@@ -209,7 +286,8 @@ ALL_CHECKS = [
     check_clone_independence, check_pickle_round_trip, check_seeded_determinism,
     check_learn_many_matches_learn_one, check_memory_bounded, check_confidence_in_unit_interval,
     check_confidence_knows_what_it_knows, check_confidence_doubts_an_input_that_never_varied,
-    check_bad_input_rejected, check_error_messages,
+    check_bad_input_rejected, check_error_messages, check_sane_on_robot_streams, check_no_nan_on_degenerate_streams,
+    check_confidence_doubts_a_query_off_the_span,
 ]
 
 

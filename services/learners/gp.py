@@ -33,7 +33,8 @@ from .gp_evidence import Evidence, fit, linear_share, prior_start
 from .novelty import InputEnvelope
 
 # refit early once the mean squared standardised error of the last taught ticks passes SURPRISED
-# (typical errors of two standard deviations), at most every SURPRISE_REFIT_GAP samples
+# (typical errors of two standard deviations), at most every SURPRISE_REFIT_GAP samples, and each
+# such refit doubles the wait for the next
 SURPRISED, SURPRISE_REFIT_GAP = 4.0, 8
 # and once an input's spread grows past SPREAD_GROWTH times what the last fit saw: the teaching now
 # spans a direction the fit hardly knew (an input that never varied starts to: the orange ball)
@@ -79,6 +80,7 @@ class GP(Learner):
         self._fitted_inputs = np.zeros(n_in, dtype=bool)  # inputs that varied at the last fit
         self._fitted_sd = np.zeros(n_in)  # and their spread then
         self._surprise, self._last_fit = 0.0, 0  # see _weigh_surprise
+        self._surprise_gap = SURPRISE_REFIT_GAP  # samples a surprise must wait since the last fit
 
     @classmethod
     def _unit_test_params(cls) -> dict:
@@ -98,6 +100,28 @@ class GP(Learner):
     def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
         self._envelope.learn(x[None, :])
         self._count_target(y)
+        # an exact repeat of a remembered pair adds nothing (epochs over one data set would otherwise
+        # tell the evidence there is no noise)
+        if not self._remembered(x, y):
+            self._remember(x, y)
+        if self._y_count >= self._next_fit:  # n_learned lags inside learn_many
+            self._next_fit = min(2 * self._next_fit, self._next_fit + self.refit_every)
+            if self._factored:
+                self._refit()
+        elif self._factored and self._y_count - self._last_fit >= SURPRISE_REFIT_GAP:
+            if np.any(self._input_sd() > SPREAD_GROWTH * self._fitted_sd):
+                self._refit()  # the teaching spans an input further than the fit saw
+            elif self._surprise > SURPRISED and self._y_count - self._last_fit >= self._surprise_gap:
+                # the teaching contradicts the fit; if refitting does not end that (a mismatch no fit can
+                # mend), the next try waits twice as long
+                self._surprise_gap = min(2 * self._surprise_gap, self.refit_every)
+                self._refit()
+
+    def _remembered(self, x: np.ndarray, y: np.ndarray) -> bool:
+        m = self._m
+        return bool(np.any(np.all(self._xs[:m] == x, axis=1) & np.all(self._ys[:m] == y, axis=1)))
+
+    def _remember(self, x: np.ndarray, y: np.ndarray) -> None:
         if self._m == self.memory:
             self._thin()
         self._reserve(self._m + 1)
@@ -109,19 +133,11 @@ class GP(Learner):
             # factor is built once something varies (an output no teacher moves costs nothing)
             if np.any(self._taught.span > 0.0):
                 self._refit()
-        else:
-            before = np.empty(self.n_out)
-            unit_var = gp_kernels.append(self._xs, self._chol, self._beta, m, kernel_ready(x),
-                                         kernel_ready(y - self._mu), self._inv_ell, self._centre, self._smooth,
-                                         self._linear, self._ratio, before)
-            self._weigh_surprise(y - self._mu - before, unit_var)
-        if self._y_count >= self._next_fit:  # n_learned lags inside learn_many
-            self._next_fit = min(2 * self._next_fit, self._next_fit + self.refit_every)
-            if self._factored:
-                self._refit()
-        elif self._factored and self._y_count - self._last_fit >= SURPRISE_REFIT_GAP and (
-                self._surprise > SURPRISED or np.any(self._input_sd() > SPREAD_GROWTH * self._fitted_sd)):
-            self._refit()  # the teaching contradicts the fit, or spans inputs further than the fit saw
+            return
+        before = np.empty(self.n_out)
+        unit_var = gp_kernels.append(self._xs, self._chol, self._beta, m, kernel_ready(x), kernel_ready(y - self._mu),
+                                     self._inv_ell, self._centre, self._smooth, self._linear, self._ratio, before)
+        self._weigh_surprise(y - self._mu - before, unit_var)
 
     def _weigh_surprise(self, error: np.ndarray, unit_var: float) -> None:
         """Every taught tick tests what the learner would have said: a running mean of the squared
@@ -280,7 +296,7 @@ class GP(Learner):
         # the posterior's variance sees novelty along the inputs it was fitted on; only along an input that
         # never varied (its relevance unknown: the orange ball before any lesson with it) the envelope must
         unknown = ~self._fitted_inputs if self._fitted_inputs.any() else None
-        confidence = per_output.min(1) * self._envelope.discount(xs, self.novelty_scale, unknown) * ramp
+        confidence = per_output.min(1) * self._envelope.beyond_inputs(xs, self.novelty_scale, unknown) * ramp
         return Predictions(y, confidence, sd)
 
     def _bound(self, y: np.ndarray) -> np.ndarray:

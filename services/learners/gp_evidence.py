@@ -94,17 +94,22 @@ def negative_log_posterior(theta: np.ndarray, xs: np.ndarray, ys: np.ndarray, pr
 
 def fit(xs: np.ndarray, ys: np.ndarray, start: Evidence, prior_ell_sd: float, noise_floor: float,
         max_iterations: int) -> Evidence:
-    """The MAP hyper-parameters for normalised xs (n, d) and ys (n, k), from `start`."""
+    """The MAP hyper-parameters for normalised xs (n, d) and ys (n, k): the better of a climb from
+    `start` (the last fit) and one from the prior, so that an early fit to a few noiseless-looking
+    samples (short length scales, no noise) cannot hold every later one in its local optimum."""
     d = xs.shape[1]
     prior_log_ell = math.log(math.sqrt(d)) + SPARSITY
     log_sn_floor = 0.5 * math.log(noise_floor)
-    theta = np.concatenate([start.log_ell, [start.log_sf, max(start.log_sn, log_sn_floor), start.logit_linear]])
     bounds = [LOG_ELL_BOUNDS] * d + [LOG_SF_BOUNDS, (log_sn_floor, 0.0), LOGIT_SHARE_BOUNDS]
-    theta = np.clip(theta, [b[0] for b in bounds], [b[1] for b in bounds])
-    result = minimize(negative_log_posterior, theta, jac=True, method="L-BFGS-B", bounds=bounds,
-                      args=(xs, ys, prior_log_ell, prior_ell_sd, log_sn_floor),
-                      options={"maxiter": max_iterations})
-    best = result.x if np.all(np.isfinite(result.x)) else theta
+    low, high = [b[0] for b in bounds], [b[1] for b in bounds]
+    starts = [np.clip(np.concatenate([e.log_ell, [e.log_sf, e.log_sn, e.logit_linear]]), low, high)
+              for e in (start, prior_start(d))]
+    best, best_value = starts[0], math.inf
+    for theta in starts:
+        result = minimize(negative_log_posterior, theta, jac=True, method="L-BFGS-B", bounds=bounds,
+                          args=(xs, ys, prior_log_ell, prior_ell_sd, log_sn_floor), options={"maxiter": max_iterations})
+        if np.all(np.isfinite(result.x)) and result.fun < best_value:
+            best, best_value = result.x, result.fun
     return Evidence(best[:d].copy(), float(best[d]), float(best[d + 1]), float(best[d + 2]))
 
 

@@ -83,7 +83,7 @@ class KNN(Learner):
             return Predictions(np.zeros((n, self.n_out)), np.zeros(n), np.full((n, self.n_out), np.inf))
         chunks = [self._predict_chunk(xs[start:start + _CHUNK]) for start in range(0, n, _CHUNK)]
         ys, confidence, spread = (np.concatenate(part) for part in zip(*chunks))
-        return Predictions(ys, confidence * self._envelope.discount(xs, self.novelty_scale), spread)
+        return Predictions(ys, confidence * self._envelope.beyond_span(xs, self.novelty_scale), spread)
 
     def _predict_chunk(self, xs: np.ndarray):
         stored_x, stored_y = self._xs[:self._count], self._ys[:self._count]

@@ -19,7 +19,7 @@ from .lwpr_layout import (
     FAST_MATH,
     BETA, BETA0, CENTRE, HP_DIAG_ONLY, HP_EXACT_FIT, LAMBDA, HP_INIT_REG, HP_MAX_RFS, HP_UPDATE_D, HP_W_CUTOFF,
     HP_NOVELTY_SCALE, HP_W_GEN, HP_W_PRUNE, MEAN_X, N_DATA, P_LOAD, SS_S2, SUM_E_CV2, SUM_W, U_DIR,
-    beyond_experience, init_rf, mat, rls_theta, squared_distance, trace_d, vec,
+    beyond_experience, init_rf, mat, rls_inverse, rls_theta, squared_distance, trace_d, vec,
 )
 from .lwpr_metric import update_metric
 from .lwpr_receptive_field import (
@@ -173,8 +173,9 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     forgetting), as in the reference library; while any trusted field is active, young
     ones are left out, because a field created a moment ago fits its few samples and
     nothing else. Support (the confidence) is the strongest activation, each discounted
-    by its field's maturity min(1, samples / 2n) and, with a novelty scale, by how far x
-    lies beyond the inputs the field has learned from (lwpr_layout.beyond_experience)."""
+    by its field's maturity min(1, samples / 2n), with a novelty scale by how far x lies
+    beyond the inputs the field has learned from (lwpr_layout.beyond_experience), and with
+    the exact fit by how far x lies off the span of that data (off_span)."""
     n = x.shape[0]
     diag_only, exact = hp[HP_DIAG_ONLY] != 0.0, hp[HP_EXACT_FIT] != 0.0
     novelty_scale = hp[HP_NOVELTY_SCALE]
@@ -190,6 +191,8 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
         field_support = math.exp(-0.5 * q) * maturity
         if novelty_scale > 0.0 and field_support > support:  # novelty only lowers it: skip the hopeless
             field_support *= math.exp(-0.5 * beyond_experience(st, n, x, novelty_scale))
+        if exact and field_support > support:
+            field_support *= off_span(st, n, x)
         support = max(support, field_support)
         if q < q_cut:
             w = math.exp(-0.5 * q)
@@ -205,6 +208,27 @@ def predict_output(rfs, nreg, n_rfs, k, x, hp, xres):
     # spread between fields counts as uncertainty too
     spread = max(0.0, swyy / sw - y * y)
     return y, support, math.sqrt(swv / sw + spread)
+
+
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def off_span(st, n, x):
+    """1 while x lies within the span of the data the field's exact fit learned from, falling as a
+    Gaussian of how far beyond. The fit's leverage z'Pz (z = [x - c, 1]) times its weighted sample
+    count is 1 + the squared Mahalanobis distance of x from that data: within it, at most about
+    2 (n + 1) (the chi-square 99.9 % point); off its span (two inputs that never parted, a reading
+    dragged along) it grows with the fit's prior and the field's guess must not be trusted."""
+    c, inverse = vec(st, CENTRE, n), rls_inverse(st, n)
+    m = n + 1
+    leverage = 0.0
+    for i in range(m):
+        zi = x[i] - c[i] if i < n else 1.0
+        acc = 0.0
+        for j in range(m):
+            acc += inverse[i * m + j] * (x[j] - c[j] if j < n else 1.0)
+        leverage += zi * acc
+    distance = math.sqrt(max(leverage * vec(st, SUM_W, n)[0] - 1.0, 0.0))
+    beyond = max(distance - math.sqrt(2.0 * m), 0.0)
+    return math.exp(-0.5 * beyond * beyond)
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)

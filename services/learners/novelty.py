@@ -2,10 +2,15 @@
 
 A kernel's width is shared by every input, so a value never seen along one input that never
 varied (an orange ball after teaching with pink alone) barely moves a GP's variance or a
-neighbour's distance: the robot would drive on, sure of itself, where it should ask. The
-envelope keeps each input's mean and spread over everything learned; a query's confidence is
-multiplied by exp(-d^2 / (2 scale^2)), d being how far it lies beyond mean +- EXPERIENCED_SDS
-sd. LWPR does the same per receptive field (lwpr_layout.beyond_experience).
+neighbour's distance: the robot would drive on, sure of itself, where it should ask. Nor can one
+width see a query off the span of the data: taught while two inputs moved as one (a reading dragged
+along by another), a query where they part is new however close it lies to some sample.
+
+The envelope keeps the mean and covariance of everything learned. `beyond_span` measures how far a
+query lies beyond mean +- EXPERIENCED_SDS sd along each principal direction of that covariance (an
+input that never varied, or two that never parted, span nothing along theirs); `beyond_inputs` the
+same along chosen inputs' own axes. A query's confidence is multiplied by exp(-d^2 / (2 scale^2)).
+LWPR does the axis-aligned form per receptive field (lwpr_layout.beyond_experience).
 """
 from __future__ import annotations
 
@@ -16,32 +21,59 @@ EXPERIENCED_SDS = 3.0
 
 
 class InputEnvelope:
-    """Per-input running mean and variance of the inputs learned (Chan's batch merge)."""
+    """Running mean and covariance of the inputs learned (Chan's batch merge)."""
 
     def __init__(self, n_in: int):
         self.count = 0
         self.mean = np.zeros(n_in)
-        self.sum_sq = np.zeros(n_in)  # sum of squared deviations from the mean
+        self.scatter = np.zeros((n_in, n_in))  # sum of outer products of deviations from the mean
+        self._axes = None  # (eigenvalues, eigenvectors) of the covariance, until the next learn
+
+    def __getstate__(self) -> dict:
+        return dict(self.__dict__, _axes=None)  # a cache: not part of what was learned
+
+    def __setstate__(self, state: dict) -> None:
+        if "scatter" not in state:  # a snapshot from when only each input's spread was kept
+            state["scatter"] = np.diag(state.pop("sum_sq"))
+        state.setdefault("_axes", None)
+        self.__dict__.update(state)
+
+    @property
+    def sum_sq(self) -> np.ndarray:
+        """Per input, the sum of squared deviations from the mean."""
+        return np.diag(self.scatter).copy()
 
     def learn(self, xs: np.ndarray) -> None:
         n = xs.shape[0]
         if n == 0:
             return
         batch_mean = xs.mean(axis=0)
-        batch_sum_sq = ((xs - batch_mean) ** 2).sum(axis=0)
+        centred = xs - batch_mean
         total = self.count + n
         delta = batch_mean - self.mean
-        self.sum_sq += batch_sum_sq + delta * delta * self.count * n / total
+        self.scatter += centred.T @ centred + np.outer(delta, delta) * (self.count * n / total)
         self.mean += delta * n / total
         self.count = total
+        self._axes = None
 
-    def discount(self, xs: np.ndarray, scale: float, inputs: np.ndarray | None = None) -> np.ndarray:
-        """Per row of xs, the factor in (0, 1] its confidence is multiplied by (1: within
-        experience, or scale 0: novelty off); `inputs` (a mask) limits it to those inputs."""
+    def beyond_inputs(self, xs: np.ndarray, scale: float, inputs: np.ndarray | None = None) -> np.ndarray:
+        """Per row of xs, the factor in (0, 1] for how far it lies beyond experience along the
+        given inputs' axes (a mask; all inputs if None). 1 within experience, or scale 0 (off)."""
         if scale <= 0.0 or self.count == 0:
             return np.ones(xs.shape[0])
-        sd = np.sqrt(self.sum_sq / self.count)
+        sd = np.sqrt(np.maximum(np.diag(self.scatter), 0.0) / self.count)
         excess = np.maximum(np.abs(xs - self.mean) - EXPERIENCED_SDS * sd, 0.0)
         if inputs is not None:
             excess = excess[:, inputs]
+        return np.exp(-0.5 * (excess * excess).sum(axis=1) / (scale * scale))
+
+    def beyond_span(self, xs: np.ndarray, scale: float) -> np.ndarray:
+        """As beyond_inputs, along the principal directions of the inputs learned."""
+        if scale <= 0.0 or self.count == 0:
+            return np.ones(xs.shape[0])
+        if self._axes is None:
+            variances, directions = np.linalg.eigh(self.scatter / self.count)
+            self._axes = (np.sqrt(np.maximum(variances, 0.0)), directions)
+        sd, directions = self._axes
+        excess = np.maximum(np.abs((xs - self.mean) @ directions) - EXPERIENCED_SDS * sd, 0.0)
         return np.exp(-0.5 * (excess * excess).sum(axis=1) / (scale * scale))

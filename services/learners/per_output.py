@@ -54,6 +54,10 @@ class PerOutput(Learner):
         return y  # each part holds its own answers
 
     @property
+    def n_broken(self) -> int:
+        return self._n_broken + sum(part.n_broken for part in self._parts)
+
+    @property
     def size(self) -> int:
         return int(sum(part.size for part in self._parts))
 

@@ -61,7 +61,7 @@ class SOGP(Learner):
         kss, noise = self._params[0], self._params[2]
         mean, var = _kernels().predict(self._bv, self._alpha, self._c, self._count, self._params,
                                        kernel_ready(xs))
-        confidence = np.clip(1.0 - var / kss, 0.0, 1.0) * self._envelope.discount(xs, self.novelty_scale)
+        confidence = np.clip(1.0 - var / kss, 0.0, 1.0) * self._envelope.beyond_span(xs, self.novelty_scale)
         interval = np.repeat(np.sqrt(var + noise)[:, None], self.n_out, axis=1)
         return Predictions(mean, confidence, interval)
 
