@@ -20,6 +20,7 @@ from pathlib import Path
 # replace (not prepend) the script's folder, before any import: benchmarks/platform.py would
 # otherwise shadow the standard library's `platform`, which numba and tqdm import
 sys.path[0] = str(Path(__file__).resolve().parents[1])
+import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse  # noqa: E402
 import json  # noqa: E402

@@ -20,6 +20,7 @@ from pathlib import Path
 _HERE = Path(__file__).resolve().parent
 sys.path[:] = [entry for entry in sys.path if Path(entry or ".").resolve() != _HERE]
 sys.path.insert(0, str(_HERE.parent))
+import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402

@@ -12,6 +12,7 @@ from pathlib import Path
 
 # run as a script, sys.path[0] is benchmarks/, whose platform.py would shadow the standard library's
 sys.path[0] = str(Path(__file__).resolve().parents[1])
+import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse
 import contextlib

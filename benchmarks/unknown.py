@@ -17,6 +17,7 @@ from pathlib import Path
 
 # replace (not prepend) the script's folder: benchmarks/platform.py would shadow the standard library
 sys.path[0] = str(Path(__file__).resolve().parents[1])
+import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse  # noqa: E402
 import json  # noqa: E402

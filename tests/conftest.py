@@ -1,3 +1,4 @@
+import services  # noqa: F401  (first: one BLAS thread per process, see services/__init__.py)
 import pytest
 
 from tests.harness import dogged, free_port, stop

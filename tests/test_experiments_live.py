@@ -11,7 +11,7 @@ def endpoint():
 
 
 def test_mirroring_one_teacher_live(tmp_path):
-    run = start_mirroring(tmp_path, endpoint(), learner="lwpr")
+    run = start_mirroring(tmp_path, endpoint())  # the learner deploy/mirroring.toml wires
     try:
         run.run_ticks(30)
         untaught, _ = student_error(run, 0)
@@ -62,8 +62,7 @@ def test_ballseek_live_untaught_robot_asks_and_the_scripted_person_answers(tmp_p
 
 def test_mirroring_two_teachers_in_turn_merge_live(tmp_path):
     """Pan is taught, then tilt, by two partial teachers; the student then mirrors both axes."""
-    run = start_mirroring(tmp_path, endpoint(), learner="per-output", learner_params={"base": "lwpr"},
-                          teachers={"pan": "pan", "tilt": "tilt"})
+    run = start_mirroring(tmp_path, endpoint(), teachers={"pan": "pan", "tilt": "tilt"})  # wired: per-output
     try:
         run.run_ticks(30)
         for teacher in ("pan", "tilt"):

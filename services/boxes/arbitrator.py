@@ -30,6 +30,7 @@ class Arbitrator:
     def __init__(self, session, keys: InstanceKeys, spaces, strategy, deadline_s, learner, train_on, recent, log):
         self.session, self.keys, self.log = session, keys, log
         self.dims = {"x": spaces.input.dims, "y": spaces.output.dims}
+        self.output_space = spaces.output  # every command, and so every pair learned, is clipped to it
         self.strategy, self.train_on = strategy, train_on
         self.table = TickTable(deadline_s)
         self.members = Membership(keys)
@@ -112,12 +113,15 @@ class Arbitrator:
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
             defaults = [(m, p) for m, p in entry.proposals.items() if m.startswith("default/") and p.y is not None]
             d = self.strategy.decide(teachers, learner_p, defaults[0] if defaults else None, self.last_command)
-            self.last_command = d.y
-            self.command_pub.put(encode(Command(entry.tick, entry.stamp, d.y, d.mode, d.source, d.confidence)))
+            y = self.output_space.clip(d.y)
+            if not np.array_equal(y, d.y):
+                self.counts["clipped_commands"] += 1
+            self.last_command = y
+            self.command_pub.put(encode(Command(entry.tick, entry.stamp, y, d.mode, d.source, d.confidence)))
             self.counts["commands"] += 1
             self.counts[f"mode_{d.mode}"] += 1
             if d.train or self.train_on == "all":
-                self.publish_pair(entry.tick, entry.x, d.y, d.source, d.mask)
+                self.publish_pair(entry.tick, entry.x, y, d.source, d.mask)
 
     def publish_pair(self, tick, x, y, source, mask=None):
         self.seq += 1

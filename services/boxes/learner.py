@@ -26,8 +26,9 @@ from services.params import parse_params
 
 
 class LearnerNode:
-    def __init__(self, session, keys, name, model, pairlog, log):
+    def __init__(self, session, keys, name, model, pairlog, log, output_space):
         self.session, self.keys, self.name, self.model, self.pairs, self.log = session, keys, name, model, pairlog, log
+        self.output_space = output_space  # every proposal is clipped to it
         self.dims = {"x": model.n_in, "y": model.n_out, "mask": model.n_out}
         self.epoch, self.seq = "", 0
         self.rejects, self.counts = Rejects(log), collections.Counter()
@@ -103,6 +104,7 @@ class LearnerNode:
             return False
         if snap.learner_class == type(self.model).__name__:
             self.model = type(self.model).restore(snap.blob)
+            self.model.serve_live()
             how = "snapshot"
         elif np.all(history.mask == 1):
             self.model.learn_many(history.x, history.y)
@@ -123,7 +125,10 @@ class LearnerNode:
     # --- serving ----------------------------------------------------------------------------
     def answer(self, msg: Input):
         p = self.model.predict_one(msg.x)
-        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", p.y, float(p.confidence))))
+        y = self.output_space.clip(p.y)
+        if not np.array_equal(y, p.y):
+            self.counts["clipped"] += 1  # the learner's own bound is its taught range; the robot's is this
+        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, float(p.confidence))))
         self.counts["proposals"] += 1
 
     def on_query(self, query: zenoh.Query):
@@ -164,8 +169,9 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
             return 0
         model = make_learner(learner, n_in=spaces.input.dims, n_out=spaces.output.dims, seed=seed, **params)
         compile_kernels(model)
+        model.serve_live()
         pairlog = PairLog(model.n_in, model.n_out, Path(state_dir) / f"{name}.pairs" if state_dir else None)
-        node = LearnerNode(session, keys, name, model, pairlog, log)
+        node = LearnerNode(session, keys, name, model, pairlog, log, spaces.output)
         # subscribe before warming: pairs published meanwhile wait in the inbox, none is missed
         held = []  # declarations live as long as these references (a dropped token is undeclared)
         held.append(session.declare_subscriber(keys.train, inbox.callback("train")))

@@ -2,6 +2,7 @@
 its tail (and distractors), mirror teachers, a learner and the arbitrator under the supervisor."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -38,21 +39,27 @@ box = "arbitrator"
 TEACHER = """
 [services.{name}]
 box = "demonstrator"
-args = ["--teacher", "mirror", "--param", "axes={axes}"]
+args = ["--teacher", "{teacher}"{params}]
 """
+
+
+def param_args(params: dict) -> str:
+    """', "--param", "k=v"' per entry, values as the services read them (JSON, or a bare string)."""
+    return "".join(f', "--param", "{k}={v if isinstance(v, str) else json.dumps(v)}"' for k, v in params.items())
 
 
 def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0,
                     teachers: dict | None = None, learner_params: dict | None = None) -> LiveRun:
-    """teachers: service name -> axes ('both', 'pan', 'tilt'); default one teacher 'mirror' for both.
-    learner None: the learner and settings deploy/mirroring.toml wires."""
+    """teachers: service name -> axes of a mirror teacher ('both', 'pan', 'tilt') or (teacher, params);
+    default one teacher 'mirror' for both. learner None: the learner and settings deploy/mirroring.toml wires."""
     if learner is None:
         learner, learner_params = wired_learner("mirroring")
     teachers = teachers or {"mirror": "both"}
     run_dir.mkdir(parents=True, exist_ok=True)
     profile = run_dir / "mirroring.toml"
-    blocks = "".join(TEACHER.format(name=n, axes=a) for n, a in teachers.items())
-    params = "".join(f', "--param", "{k}={v}"' for k, v in (learner_params or {}).items())
+    specs = {n: ("mirror", {"axes": t}) if isinstance(t, str) else t for n, t in teachers.items()}
+    blocks = "".join(TEACHER.format(name=n, teacher=t, params=param_args(p)) for n, (t, p) in specs.items())
+    params = param_args(learner_params or {})
     profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, seed=seed, learner=learner, teachers=blocks,
                                       learner_params=params))
     run = LiveRun(profile, run_dir, endpoint)
@@ -60,9 +67,10 @@ def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, se
     return run
 
 
-def student_error(run: LiveRun, since_tick: int, axes=("pan", "tilt")) -> tuple[float, int]:
-    """RMS (rad) over the head axes of (teacher's answer - the command) for student ticks since `since_tick`."""
-    teacher = MirrorTeacher(Spaces(JOINTS_BOX, JOINTS_BOX))
+def student_error(run: LiveRun, since_tick: int, axes=("pan", "tilt"), teacher=None) -> tuple[float, int]:
+    """RMS (rad) over the head axes of (teacher's answer - the command) for student ticks since
+    `since_tick`; the teacher is the full mirroring one unless given."""
+    teacher = teacher or MirrorTeacher(Spaces(JOINTS_BOX, JOINTS_BOX))
     inputs = {m.tick: m.x for m in run.inputs() if m.tick >= since_tick}
     outputs = [{"tilt": HEAD_TILT, "pan": HEAD_PAN}[a] for a in axes]
     errors = [teacher(inputs[c.tick])[0][outputs] - c.y[outputs]

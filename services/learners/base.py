@@ -160,6 +160,10 @@ class Learner:
         """Hold answers to the taught range; a learner with a rule of its own overrides this."""
         return self._taught.bound(y)
 
+    def serve_live(self) -> None:
+        """A service is about to serve a live loop with this learner: one whose upkeep can take long
+        (the GP's fits) moves it off the caller's thread. Offline use stays deterministic."""
+
     @property
     def n_learned(self) -> int:
         return self._n_learned

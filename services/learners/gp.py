@@ -5,9 +5,12 @@ It remembers up to `memory` samples and answers with the exact posterior over th
 the most redundant are thinned (of two close samples the older goes), so every region taught
 keeps its examples and a newer lesson outweighs an older one there. One length scale per input
 and the outputs' amplitude and noise are refitted by maximum a posteriori evidence (gp_evidence)
-after `first_fit`, 2 `first_fit`, 4 `first_fit`, ... samples, then every `refit_every`: inputs
-that do not explain the teaching (distractors, readings dragged along) grow long length scales
-and stop mattering. Far from what it was taught the posterior reverts to the taught mean, and
+after `first_fit`, 2 `first_fit`, 4 `first_fit`, ... samples (never on fewer samples than inputs:
+those cannot tell which inputs matter), then every `refit_every`, and early when the teaching
+surprises the fit or spreads an input further than the fit saw: inputs that do not explain the
+teaching (distractors, readings dragged along) grow long length scales and stop mattering. Serving
+live (`serve_live`, the learner service) a fit runs on a thread of its own and is applied when done;
+teaching that went on meanwhile is fitted next, so when teaching stops the last fit has seen it all. Far from what it was taught the posterior reverts to the taught mean, and
 an answer is held to the taught range plus 10 % of its span, unless the evidence says the map is
 linear and the posterior trusts the answer more than the held one: a linear map extends past the
 part of it that was shown (the mirroring task, from 15-30 samples), a curved one's trend is not
@@ -22,6 +25,8 @@ envelope's novelty discount (services.learners.novelty).
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 
 import numpy as np
 from scipy.linalg import solve_triangular
@@ -29,7 +34,7 @@ from scipy.special import erf
 
 from . import gp_kernels
 from .base import Learner, Predictions, check_positive, check_range, kernel_ready
-from .gp_evidence import Evidence, fit, linear_share, prior_start
+from .gp_evidence import Hyper, first_hyper, fit_memory, linear_share
 from .novelty import InputEnvelope
 
 # refit early once the mean squared standardised error of the last taught ticks passes SURPRISED
@@ -43,6 +48,17 @@ SPREAD_GROWTH = 2.0
 # of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
 LINEAR_ENOUGH = 1e-3
 
+
+
+_FITTER: ThreadPoolExecutor | None = None
+
+
+def _fitter() -> ThreadPoolExecutor:
+    """One thread for every GP of the process that serves live: fits queue rather than crowd the cores."""
+    global _FITTER
+    if _FITTER is None:
+        _FITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-fit")
+    return _FITTER
 
 
 class GP(Learner):
@@ -66,21 +82,13 @@ class GP(Learner):
         self._xs, self._ys = np.zeros((0, n_in)), np.zeros((0, n_out))
         self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was learned
         self._chol, self._beta = np.zeros((0, 0)), np.zeros((0, n_out))
-        self._mu = np.zeros(n_out)
-        self._inv_ell = np.full(n_in, 1.0 / math.sqrt(n_in))  # unit-scale inputs until the first fit
-        self._log_ell = np.full(n_in, math.log(math.sqrt(n_in)))  # raw units, to start the next fit from
-        self._log_sf, self._log_sn, self._logit_linear = 0.0, math.log(0.1), 0.0
-        self._ratio = 0.01  # noise variance over signal variance
-        # the prior variance's shares: smooth (squared exponential) and linear around the centre
-        self._centre, self._smooth, self._linear = np.zeros(n_in), 0.5, 0.5
         self._y_count, self._y_mean, self._y_sum_sq = 0, np.zeros(n_out), np.zeros(n_out)
         self._envelope = InputEnvelope(n_in)
         self._next_fit = first_fit
         self._factored = False  # chol and beta hold the memory's posterior
-        self._fitted_inputs = np.zeros(n_in, dtype=bool)  # inputs that varied at the last fit
-        self._fitted_sd = np.zeros(n_in)  # and their spread then
-        self._surprise, self._last_fit = 0.0, 0  # see _weigh_surprise
         self._surprise_gap = SURPRISE_REFIT_GAP  # samples a surprise must wait since the last fit
+        self._background, self._pending = False, None  # serve_live: fits on another thread
+        self._use(first_hyper(n_in, n_out), rebuild=False)  # also sets the surprise and spread baselines
 
     @classmethod
     def _unit_test_params(cls) -> dict:
@@ -98,13 +106,14 @@ class GP(Learner):
 
     # --- learning ---------------------------------------------------------------------------
     def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+        self._collect()
         self._envelope.learn(x[None, :])
         self._count_target(y)
         # an exact repeat of a remembered pair adds nothing (epochs over one data set would otherwise
         # tell the evidence there is no noise)
         if not self._remembered(x, y):
             self._remember(x, y)
-        if self._y_count >= self._next_fit:  # n_learned lags inside learn_many
+        if self._y_count >= self._next_fit and self._pending is None:  # n_learned lags inside learn_many
             self._next_fit = min(2 * self._next_fit, self._next_fit + self.refit_every)
             if self._factored:
                 self._refit()
@@ -132,12 +141,14 @@ class GP(Learner):
             # while every target taught has been the same the posterior is that constant, exactly: the
             # factor is built once something varies (an output no teacher moves costs nothing)
             if np.any(self._taught.span > 0.0):
+                self._rebuild()
                 self._refit()
             return
         before = np.empty(self.n_out)
-        unit_var = gp_kernels.append(self._xs, self._chol, self._beta, m, kernel_ready(x), kernel_ready(y - self._mu),
-                                     self._inv_ell, self._centre, self._smooth, self._linear, self._ratio, before)
-        self._weigh_surprise(y - self._mu - before, unit_var)
+        unit_var = gp_kernels.append(self._xs, self._chol, self._beta, m, kernel_ready(x),
+                                     kernel_ready(y - self._hyper.mu), self._inv_ell, self._hyper.centre,
+                                     self._smooth, self._linear, self._ratio, before)
+        self._weigh_surprise(y - self._hyper.mu - before, unit_var)
 
     def _weigh_surprise(self, error: np.ndarray, unit_var: float) -> None:
         """Every taught tick tests what the learner would have said: a running mean of the squared
@@ -199,31 +210,47 @@ class GP(Learner):
             self._rebuild()
 
     # --- hyper-parameters ---------------------------------------------------------------------
+    def serve_live(self) -> None:
+        """Fit hyper-parameters on another thread from now on (a fit takes up to seconds; the loop must
+        not wait), applying each at the next call once done. Offline use stays synchronous and
+        deterministic."""
+        self._background = True
+
     def _refit(self) -> None:
-        xs, ys = self._xs[:self._m], self._ys[:self._m]
-        self._mu = ys.mean(0)
-        out_sd, in_mean, in_sd = ys.std(0), xs.mean(0), xs.std(0)
-        varying_out = out_sd > 1e-12 * (1.0 + np.abs(self._mu))
-        varying_in = in_sd > 1e-12 * (1.0 + np.abs(in_mean))
-        if varying_out.any() and varying_in.any():
-            rows = np.unique(np.linspace(0, self._m - 1, min(self.fit_points, self._m)).round().astype(int))
-            norm_x = (xs[rows][:, varying_in] - in_mean[varying_in]) / in_sd[varying_in]
-            norm_y = (ys[rows][:, varying_out] - self._mu[varying_out]) / out_sd[varying_out]
-            start = Evidence(self._log_ell[varying_in] - np.log(in_sd[varying_in]), self._log_sf, self._log_sn,
-                             self._logit_linear)
-            found = fit(norm_x, norm_y, start, self.relevance_prior_sd, self.noise_floor, self.max_iterations)
-            self._log_ell[varying_in] = found.log_ell + np.log(in_sd[varying_in])
-            self._log_sf, self._log_sn, self._logit_linear = found.log_sf, found.log_sn, found.logit_linear
-        # an input that never varied keeps the prior's length scale in its own units: moving it is
-        # new (the envelope says so) but changes the answer little, as the paper's orange ball did
-        self._log_ell[~varying_in] = prior_start(self.n_in).log_ell[0]
-        self._fitted_inputs, self._surprise, self._last_fit = varying_in, 0.0, self._y_count
-        self._fitted_sd = self._input_sd()
-        self._inv_ell = np.exp(-self._log_ell)
-        self._linear = linear_share(self._logit_linear)
-        self._centre, self._smooth = in_mean, 1.0 - self._linear
-        self._ratio = max(math.exp(2.0 * (self._log_sn - self._log_sf)), self.noise_floor)
-        self._rebuild()
+        if self._pending is not None:
+            return  # one fit at a time; whatever asked for this one will ask again
+        if self._m <= self.n_in:
+            return  # fewer samples than inputs cannot tell which inputs matter: the prior's scales stand
+        job = partial(fit_memory, self._xs[:self._m].copy(), self._ys[:self._m].copy(), self._hyper,
+                      self.fit_points, self.relevance_prior_sd, self.noise_floor, self.max_iterations)
+        seen = (self._input_sd(), self._y_count)  # what the fit sees, for the refit triggers
+        if self._background:
+            self._pending = (_fitter().submit(job), seen)
+        else:
+            self._use(job(), seen)
+
+    def _collect(self) -> None:
+        """Apply a fit done on the fitter's thread (a failed one leaves the last fit in place). If
+        teaching went on while it ran, fit again: when teaching stops, the last fit has seen it all."""
+        if self._pending is not None and self._pending[0].done():
+            (done, seen), self._pending = self._pending, None
+            if done.exception() is None:
+                self._use(done.result(), seen)
+            if self._y_count > seen[1]:
+                self._refit()
+
+    def _use(self, hyper: Hyper, seen: tuple | None = None, rebuild: bool = True) -> None:
+        """Adopt a fit: the kernel's working quantities, the factor, and the refit triggers' baselines:
+        the spread and count the fit saw (learning that went on while it ran is yet to be fitted)."""
+        self._hyper = hyper
+        self._inv_ell = np.exp(-hyper.log_ell)
+        self._linear = linear_share(hyper.logit_linear)
+        self._smooth = 1.0 - self._linear
+        self._ratio = max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), self.noise_floor)
+        self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
+        self._surprise = 0.0
+        if rebuild:
+            self._rebuild()
 
     def _rebuild(self) -> None:
         """The Cholesky factor and beta over the memory, from scratch."""
@@ -236,17 +263,18 @@ class GP(Learner):
             except np.linalg.LinAlgError:  # rounding on near-duplicates: more noise, never a crash
                 self._ratio *= 10.0
         self._chol[:m, :m] = chol
-        self._beta[:m] = solve_triangular(chol, self._ys[:m] - self._mu, lower=True)
+        self._beta[:m] = solve_triangular(chol, self._ys[:m] - self._hyper.mu, lower=True)
         self._factored = True
 
     def _kernel(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        za, zb = (a - self._centre) * self._inv_ell, (b - self._centre) * self._inv_ell
+        za, zb = (a - self._hyper.centre) * self._inv_ell, (b - self._hyper.centre) * self._inv_ell
         dot = za @ zb.T
         d2 = (za * za).sum(1)[:, None] + (zb * zb).sum(1)[None, :] - 2.0 * dot
         return self._smooth * np.exp(-0.5 * np.maximum(d2, 0.0)) + self._linear * dot
 
     # --- prediction -------------------------------------------------------------------------
     def predict_one(self, x):
+        self._collect()
         if not self._factored:
             return super().predict_one(x)
         x = kernel_ready(x)
@@ -254,18 +282,19 @@ class GP(Learner):
             return super().predict_one(x)  # raises the contract's error
         offset = np.empty(self.n_out)
         unit_var = gp_kernels.predict_one(self._xs, self._chol, self._beta, self._m, x, self._inv_ell,
-                                          self._centre, self._smooth, self._linear, self._ratio, offset)
+                                          self._hyper.centre, self._smooth, self._linear, self._ratio, offset)
         many = self._answer(x[None, :], offset[None, :], np.array([unit_var]))
         return self._sane_one(many.y[0], float(many.confidence[0]), many.interval[0])
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
+        self._collect()
         n, m = xs.shape[0], self._m
         if m == 0:
             return Predictions(np.zeros((n, self.n_out)), np.zeros(n), np.full((n, self.n_out), np.inf))
         if not self._factored:  # the one value taught so far
-            return self._answer(xs, np.tile(self._taught.low - self._mu, (n, 1)), np.zeros(n))
+            return self._answer(xs, np.tile(self._taught.low - self._hyper.mu, (n, 1)), np.zeros(n))
         v = solve_triangular(self._chol[:m, :m], self._kernel(xs, self._xs[:m]).T, lower=True)
-        prior = self._smooth + self._linear * (((xs - self._centre) * self._inv_ell) ** 2).sum(1)
+        prior = self._smooth + self._linear * (((xs - self._hyper.centre) * self._inv_ell) ** 2).sum(1)
         unit_var = np.maximum(prior + self._ratio - (v * v).sum(0), self._ratio)
         return self._answer(xs, v.T @ self._beta[:m], unit_var)
 
@@ -273,7 +302,7 @@ class GP(Learner):
         """Per output, the prior variance of the map. Far from what it was taught the answer may be
         anywhere in the taught range: at least half the span squared, whatever spread the fit saw
         (teaching shows only part of a map)."""
-        fitted = math.exp(2.0 * self._log_sf) * self._y_sum_sq / max(self._y_count, 1)
+        fitted = math.exp(2.0 * self._hyper.log_sf) * self._y_sum_sq / max(self._y_count, 1)
         return np.maximum(fitted, (self._taught.span / 2) ** 2)
 
     def _answer(self, xs: np.ndarray, offset: np.ndarray, unit_var: np.ndarray) -> Predictions:
@@ -285,7 +314,7 @@ class GP(Learner):
         # linear (the smooth part's share of the variance under LINEAR_ENOUGH) and the posterior trusts
         # the answer more than the held one, P(truth nearer it) >= 1/2: a linear map extends past the part
         # of it that was shown; a curved one's trend is not followed away from what was taught
-        y = self._mu + offset
+        y = self._hyper.mu + offset
         held = self._taught.bound(y)
         if self._smooth <= LINEAR_ENOUGH:
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -295,7 +324,7 @@ class GP(Learner):
         ramp = min(1.0, self._n_learned / (2.0 * self.n_in))
         # the posterior's variance sees novelty along the inputs it was fitted on; only along an input that
         # never varied (its relevance unknown: the orange ball before any lesson with it) the envelope must
-        unknown = ~self._fitted_inputs if self._fitted_inputs.any() else None
+        unknown = ~self._hyper.varied if self._hyper.varied.any() else None
         confidence = per_output.min(1) * self._envelope.beyond_inputs(xs, self.novelty_scale, unknown) * ramp
         return Predictions(y, confidence, sd)
 
@@ -304,7 +333,8 @@ class GP(Learner):
 
     # --- snapshots --------------------------------------------------------------------------
     def __getstate__(self) -> dict:
-        state = dict(self.__dict__)  # unused rows stay out of snapshots
+        # unused rows stay out of snapshots, and so does a fit under way on the fitter's thread
+        state = dict(self.__dict__, _pending=None, _background=False)
         m = self._m
         for name in ("_xs", "_ys", "_born", "_beta"):
             state[name] = getattr(self, name)[:m].copy()

@@ -27,6 +27,11 @@ SPARSITY = 2.0
 AMPLITUDE_PRIOR_SD = 0.1  # of log amplitude, around the taught outputs' spread
 SHARE_PRIOR_SD = 3.0  # of the linear share's logit, around a half
 LOGIT_SHARE_BOUNDS = (-12.0, 12.0)
+# an input whose spread is under this share of the median input's has not varied: a joint that only
+# jittered while the robot was taught (a head held still, 1e-7 rad) tells nothing of how much it matters,
+# and normalised by that spread any length scale is microscopic, so that moving it later (the head taught
+# next) would throw every answer off; such an input keeps the prior's length scale, as one that never moved
+JITTER_SHARE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -113,10 +118,59 @@ def fit(xs: np.ndarray, ys: np.ndarray, start: Evidence, prior_ell_sd: float, no
     return Evidence(best[:d].copy(), float(best[d]), float(best[d + 1]), float(best[d + 2]))
 
 
+@dataclass(frozen=True)
+class Hyper:
+    """What a fit decides, in the data's own units: the outputs' mean (the answer far from all
+    teaching), the inputs' centre (the linear part's origin), a log length scale per input, the
+    normalised log amplitude and noise, the linear share's logit, and which inputs had varied."""
+
+    mu: np.ndarray
+    centre: np.ndarray
+    log_ell: np.ndarray
+    log_sf: float
+    log_sn: float
+    logit_linear: float
+    varied: np.ndarray
+
+
+def first_hyper(n_in: int, n_out: int) -> Hyper:
+    """Before any fit: unit-scale inputs, every one counting a little; no input known to vary."""
+    start = prior_start(n_in)
+    return Hyper(np.zeros(n_out), np.zeros(n_in), start.log_ell, start.log_sf, start.log_sn, start.logit_linear,
+                 np.zeros(n_in, dtype=bool))
+
+
+def fit_memory(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, prior_ell_sd: float,
+               noise_floor: float, max_iterations: int) -> Hyper:
+    """The hyper-parameters for remembered samples xs (m, n_in), ys (m, n_out), fitted on up to
+    `fit_points` of them spread over the memory, in units where each varying input and output has unit
+    spread; the climb starts from `last` (and from the prior, see fit). A pure function of its
+    arguments, so it may run on another thread."""
+    mu, out_sd, centre, in_sd = ys.mean(0), ys.std(0), xs.mean(0), xs.std(0)
+    varying_out = out_sd > 1e-12 * (1.0 + np.abs(mu))
+    varied = in_sd > 1e-12 * (1.0 + np.abs(centre))
+    if varied.any():  # and more than jitter (see JITTER_SHARE)
+        varied &= in_sd > JITTER_SHARE * np.median(in_sd[varied])
+    log_ell, log_sf, log_sn, logit_linear = last.log_ell.copy(), last.log_sf, last.log_sn, last.logit_linear
+    if varying_out.any() and varied.any():
+        rows = np.unique(np.linspace(0, len(xs) - 1, min(fit_points, len(xs))).round().astype(int))
+        norm_x = (xs[rows][:, varied] - centre[varied]) / in_sd[varied]
+        norm_y = (ys[rows][:, varying_out] - mu[varying_out]) / out_sd[varying_out]
+        start = Evidence(log_ell[varied] - np.log(in_sd[varied]), log_sf, log_sn, logit_linear)
+        found = fit(norm_x, norm_y, start, prior_ell_sd, noise_floor, max_iterations)
+        log_ell[varied] = found.log_ell + np.log(in_sd[varied])
+        log_sf, log_sn, logit_linear = found.log_sf, found.log_sn, found.logit_linear
+    # an input that never varied keeps the prior's length scale in its own units: moving it is new
+    # (the envelope says so) but changes the answer little, as the paper's orange ball did
+    log_ell[~varied] = prior_start(len(centre)).log_ell[0]
+    return Hyper(mu, centre, log_ell, log_sf, log_sn, logit_linear, varied)
+
+
 def prior_start(d: int) -> Evidence:
     """Where a first fit starts: every input equally relevant, amplitude as taught, a little noise,
     the prior variance shared evenly between the smooth and the linear part."""
     return Evidence(np.full(d, math.log(math.sqrt(d))), 0.0, math.log(0.1), 0.0)
 
 
-__all__ = ["Evidence", "fit", "linear_share", "negative_log_posterior", "prior_start"]
+__all__ = ["Evidence", "Hyper", "first_hyper", "fit", "fit_memory", "linear_share", "negative_log_posterior",
+           "prior_start"]

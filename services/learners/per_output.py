@@ -50,6 +50,10 @@ class PerOutput(Learner):
         confidence = np.min(np.vstack(taught), axis=0) if taught else np.zeros(len(xs))
         return Predictions(y, confidence)
 
+    def serve_live(self) -> None:
+        for part in self._parts:
+            part.serve_live()
+
     def _bound(self, y: np.ndarray) -> np.ndarray:
         return y  # each part holds its own answers
 

@@ -13,6 +13,7 @@ TEACHERS: dict[str, str] = {
     "mirror": "services.teachers.functions:MirrorTeacher",
     "hold": "services.teachers.functions:HoldTeacher",
     "ballseek": "services.teachers.ballseek:ball_seek_teacher",  # either blob layout, from the input names
+    "random-map": "services.teachers.random_map:RandomMapTeacher",  # a smooth map nobody designed, from a seed
 }
 
 
