@@ -1,0 +1,228 @@
+"""Faults over a running deployment, measured as the robot's user would feel them (issue 12).
+
+A mirroring deployment runs in real time at 30 Hz under the supervisor, every service restarted
+by policy, the learner keeping its state (`--state-dir`), a teacher teaching. Each fault SIGKILLs
+one service (or SIGSTOPs it for a while) and measures, from the bus:
+
+- recovery: from the fault until commands flow again (the end of the longest gap in commands that
+  began after the fault; 0 if the commands never stopped);
+- ticks lost: control periods (1/30 s) inside that gap without a command;
+- pairs lost: training pairs the arbitrators published that the learner does not hold once it has
+  caught up (the learner's `pairs` counter against every epoch's last seq), and the learner's own
+  `pairs_lost` count.
+
+Supervisor death is last: every service must be gone within a few seconds (no orphans).
+"""
+from __future__ import annotations
+
+import os
+import signal
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from bus_schema import Command, Status, TrainingPair, decode
+from services.demo.live import LiveRun
+
+RATE = 30.0
+GAP = 0.25  # seconds without a command that count as commands having stopped (7.5 periods)
+PROFILE = """
+[profile]
+name = "faults"
+log_dir = "{run_dir}/logs"
+
+[services.aibo]
+box = "aibo"
+args = ["--command", "joints", "--input", "joints", "--rate", "{rate}", "--camera-hz", "0"]
+restart = "always"
+
+[services.handler]
+box = "handler"
+args = ["--distractors", "mirroring"]
+restart = "always"
+
+[services.mirror]
+box = "demonstrator"
+args = ["--teacher", "mirror"]
+restart = "always"
+
+[services.learner]
+box = "learner"
+args = ["--learner", "{learner}", "--state-dir", "{run_dir}/state"]
+restart = "always"
+
+[services.arbitrator]
+box = "arbitrator"
+restart = "always"
+"""
+KILLED = ("learner", "arbitrator", "aibo", "mirror", "handler", "router")
+STOPPED = {"mirror": 5.0}  # SIGSTOP for this long, then SIGCONT: a frozen teacher
+
+
+@dataclass
+class FaultResult:
+    fault: str
+    recovery_s: float
+    ticks_lost: int
+    pairs_lost: int
+    restarted: bool
+    teacher_kept_teaching: bool  # the person's switch survived the fault
+
+
+class BusRecord:
+    """Arrival times of commands, every training pair seen, the newest status of each service."""
+
+    def __init__(self, run: LiveRun):
+        keys = run.keys
+        self.command_times: list[float] = []
+        self.pair_seqs: dict[str, int] = {}  # epoch -> highest seq published
+        self.statuses: dict[str, Status] = {}
+        session = run.session
+        self._held = [session.declare_subscriber(keys.command, self._on_command),
+                      session.declare_subscriber(keys.train, self._on_pair),
+                      session.declare_subscriber(f"{keys.prefix}/status/**", self._on_status)]
+
+    def _on_command(self, sample) -> None:
+        self.command_times.append(time.monotonic())
+
+    def _on_pair(self, sample) -> None:
+        pair = decode(TrainingPair, sample.payload.to_bytes(), str(sample.key_expr))
+        self.pair_seqs[pair.epoch] = max(pair.seq, self.pair_seqs.get(pair.epoch, 0))
+
+    def _on_status(self, sample) -> None:
+        try:
+            status = decode(Status, sample.payload.to_bytes(), str(sample.key_expr))
+        except Exception:  # noqa: BLE001 - a record, not a service: skip what does not decode
+            return
+        self.statuses[status.name] = status
+        if status.role == "arbitrator":
+            epoch, seq = status.state.get("epoch"), status.state.get("seq")
+            if isinstance(epoch, str) and isinstance(seq, int):
+                self.pair_seqs[epoch] = max(seq, self.pair_seqs.get(epoch, 0))
+
+    def published(self) -> int:
+        return sum(self.pair_seqs.values())
+
+    def learner_pairs(self) -> tuple[int, int]:
+        """(pairs the learner holds, pairs it counted lost), from its newest status."""
+        status = self.statuses.get("learner")
+        if status is None:
+            return 0, 0
+        return int(status.counters.get("pairs", 0)), int(status.counters.get("pairs_lost", 0))
+
+    def gap_after(self, start: float) -> tuple[float, float]:
+        """(the longest gap between commands that ended after `start`, when it ended)."""
+        times = [t for t in self.command_times if t >= start - 1.0]
+        best, end = 0.0, start
+        for before, after in zip(times, times[1:]):
+            if after > start and after - max(before, start) > best:
+                best, end = after - max(before, start), after
+        return best, end
+
+    def close(self) -> None:
+        for held in self._held:
+            held.undeclare()
+
+
+def wait_restarted(run: LiveRun, service: str, pid: int, timeout: float = 20.0) -> bool:
+    """The service back (a new pid, or the same one after SIGSTOP) and every service ready."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        rows = run.ps()
+        if rows and all(r["state"] == "ready" for r in rows.values()) and rows.get(service, {}).get("pid"):
+            return True
+        time.sleep(0.25)
+    return False
+
+
+def pair_deficit(run: LiveRun, record: BusRecord) -> tuple[int, int]:
+    """With teaching paused: (pairs published that the learner does not hold, its pairs_lost count)."""
+    run.teach(False)
+    time.sleep(2.5)  # every status refreshed (once a second) after the last pair
+    held, lost = record.learner_pairs()
+    return record.published() - held, lost
+
+
+def teaching(run: LiveRun, teacher: str) -> bool:
+    want = f"{run.keys.prefix}/alive/teaching/{teacher}"
+    return any(r.ok is not None for r in run.session.liveliness().get(want, timeout=1))
+
+
+def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tuple[int, int],
+           log=print) -> tuple[FaultResult, tuple[int, int]]:
+    pid = run.ps()[service]["pid"]
+    start = time.monotonic()
+    if how == "stop":
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(STOPPED[service])
+        os.kill(pid, signal.SIGCONT)
+    else:
+        os.kill(pid, signal.SIGKILL)
+    back = wait_restarted(run, service, pid)
+    time.sleep(1.5)  # steady flow after
+    still_teaching = teaching(run, "mirror")
+    gap, _ = record.gap_after(start)
+    recovery = gap if gap > GAP else 0.0
+    after = pair_deficit(run, record)
+    pairs_lost = max(0, after[0] - deficit[0]) + max(0, after[1] - deficit[1])
+    result = FaultResult(f"{how} {service}", round(recovery, 3), int(recovery * RATE), pairs_lost, back,
+                         still_teaching)
+    log(f"{result.fault}: commands again after {result.recovery_s:.2f} s, {result.ticks_lost} ticks and "
+        f"{result.pairs_lost} pairs lost; back: {back}; the teacher still teaching: {still_teaching}")
+    run.teach(True)  # as the person would, whatever the fault left
+    time.sleep(1.0)
+    return result, after
+
+
+def children_gone(pids: list[int], timeout: float = 10.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if not any(Path(f"/proc/{pid}").exists() and _alive(pid) for pid in pids):
+            return True
+        time.sleep(0.2)
+    return False
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split(") ")[-1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def run_faults(run_dir: Path, endpoint: str, learner: str = "lwpr", killed=KILLED, stopped=tuple(STOPPED),
+               warm: float = 3.0, log=print) -> dict:
+    """Start the deployment, teach, strike each fault in turn, then kill the supervisor."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    profile = run_dir / "faults.toml"
+    profile.write_text(PROFILE.format(run_dir=run_dir, rate=RATE, learner=learner))
+    run = LiveRun(profile, run_dir, endpoint)
+    record = BusRecord(run)
+    results: list[FaultResult] = []
+    orphans_gone, published, held, lost, final = False, 0, 0, 0, (0, 0)
+    try:
+        run.wait_ready()
+        run.teach(True)
+        time.sleep(warm)
+        deficit = pair_deficit(run, record)
+        run.teach(True)
+        for how, services_struck in (("stop", stopped), ("kill", killed)):
+            for service in services_struck:
+                result, deficit = strike(run, record, service, how, deficit, log)
+                results.append(result)
+        final = pair_deficit(run, record)
+        published, (held, lost) = record.published(), record.learner_pairs()
+        pids = [r["pid"] for r in run.ps().values() if r.get("pid")]
+        run.supervisor.send_signal(signal.SIGKILL)
+        orphans_gone = children_gone(pids)
+        log(f"kill supervisor: every service gone: {orphans_gone}")
+    finally:
+        record.close()
+        if run.supervisor.poll() is None:
+            run.close()
+        else:
+            run.session.close()
+            run._log.close()
+    return {"results": results, "published": published, "learner_pairs": held, "learner_pairs_lost": lost,
+            "pairs_missing": final[0], "orphans_gone": orphans_gone}
