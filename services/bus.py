@@ -15,6 +15,7 @@ import signal
 import threading
 import time
 from collections import Counter
+from pathlib import Path
 
 import zenoh
 
@@ -36,8 +37,19 @@ def add_bus_args(parser: argparse.ArgumentParser) -> None:
 
 
 def zenoh_config(connect=None, listen=None, mode="peer", config_file=None) -> zenoh.Config:
-    """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise."""
+    """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With
+    $DOGGED_SECURITY (a `dogged certs` directory) and $DOGGED_IDENTITY (this process's certificate),
+    mutual TLS, a router enforcing who may say what (services/security.py), and clients rather than
+    peers (a direct link between peers would bypass the router's access control)."""
+    secured, identity = os.environ.get("DOGGED_SECURITY"), os.environ.get("DOGGED_IDENTITY")
+    if secured and mode == "peer":
+        mode = "client"
     conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
+    if secured:
+        from services.security import secure
+        if not identity:
+            raise ValueError("DOGGED_SECURITY is set but DOGGED_IDENTITY (this process's certificate) is not")
+        secure(conf, Path(secured), identity, router=mode == "router")
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
     # a latest-only message waits up to 20 ms for room before it is dropped (default 1 ms): on a

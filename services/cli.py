@@ -35,6 +35,12 @@ def main(argv: list[str] | None = None) -> int:
     up.add_argument("profile_file")
     up.add_argument("--router", default=None, help="override the profile's router endpoint")
     up.add_argument("--quiet", action="store_true", help="do not echo service logs to the console")
+    up.add_argument("--insecure", action="store_true", help="listen beyond loopback without TLS and access control")
+    certs = sub.add_parser("certs", help="a CA and certificates: every identity a profile needs, and people's")
+    certs.add_argument("directory")
+    certs.add_argument("--profile", dest="profile_file", default=None, help="make every identity this profile needs")
+    certs.add_argument("--identity", action="append", default=[], metavar="ROLE.NAME",
+                       help="one more, e.g. operator.bob or teacher.alice (repeatable)")
     sub.add_parser("down", help="stop a running profile")
     ps = sub.add_parser("ps", help="list services: pid, state, restarts, uptime, message rates")
     ps.add_argument("--json", action="store_true", help="one JSON object, for scripts")
@@ -62,7 +68,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.verb == "up":
         from services.supervisor.commands import up
-        return up(args.profile_file, args.router, not args.quiet)
+        return up(args.profile_file, args.router, not args.quiet, args.insecure)
+    if args.verb == "certs":
+        from services.supervisor.commands import certs
+        return certs(args.directory, args.profile_file, args.identity)
     from services.supervisor import commands
     return getattr(commands, args.verb)(args)
 

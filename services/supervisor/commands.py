@@ -7,6 +7,7 @@ import logging
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import zenoh
@@ -17,7 +18,8 @@ from services.bus import lossless_publisher, wait_matching, zenoh_config
 from services.supervisor.profile import ProfileError, load_profile
 
 
-def up(profile_file: str, router: str | None, echo: bool) -> int:
+def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False) -> int:
+    from services.security import is_loopback
     from services.supervisor.supervisor import Supervisor
     logging.basicConfig(level="INFO", format="%(asctime)s %(levelname)s supervisor: %(message)s")
     try:
@@ -25,7 +27,37 @@ def up(profile_file: str, router: str | None, echo: bool) -> int:
     except ProfileError as err:
         print(f"dogged up: {err}", file=sys.stderr)
         return 2
+    if profile.security is None and not is_loopback(profile.router) and not insecure:
+        print(f"dogged up: the router would listen on {profile.router}, beyond this machine, and anyone who reaches "
+              f"it could drive the robot: set zenoh.security to a `dogged certs` directory (mutual TLS and access "
+              f"control), or say --insecure", file=sys.stderr)
+        return 2
     return Supervisor(profile, echo).run()
+
+
+def certs(directory: str, profile_file: str | None, identities: list[str]) -> int:
+    """`dogged certs DIR [--profile P] [--identity ROLE.NAME ...]`: the CA (made once) and a key and
+    certificate per identity; hand a person's pair (and ca.pem, never ca.key) to that person."""
+    from services.security import make_certs
+    wanted = list(identities)
+    if profile_file:
+        try:  # not yet the certificates it lacks: they are what this makes
+            profile = load_profile(profile_file, check_security=False)
+        except ProfileError as err:
+            print(f"dogged certs: {err}", file=sys.stderr)
+            return 2
+        wanted = profile.identities() + wanted
+    if not wanted:
+        print("dogged certs: nothing to make: give --profile and/or --identity", file=sys.stderr)
+        return 2
+    try:
+        written = make_certs(Path(directory), list(dict.fromkeys(wanted)))
+    except ValueError as err:
+        print(f"dogged certs: {err}", file=sys.stderr)
+        return 2
+    print(f"{len(written)} certificates in {directory} (CA: ca.pem; keep ca.key private): "
+          f"{', '.join(p.stem for p in written)}")
+    return 0
 
 
 def _session(args):

@@ -44,6 +44,17 @@ class Profile:
     log_dir: Path
     services: tuple[ServiceSpec, ...]
     low_latency: bool = False  # hold a PM QoS request so CPUs stay out of deep idle (services.realtime)
+    security: Path | None = None  # a `dogged certs` directory: mutual TLS and access control
+
+    def identity(self, spec: ServiceSpec) -> str:
+        """The certificate a service of this profile shows: <role>.<service name>."""
+        from services.security import BOX_ROLES
+        name = spec.name.split("-s")[0] if spec.box == "learner" else spec.name  # a swap's learner-sN is learner
+        return f"{BOX_ROLES[spec.box]}.{name}"
+
+    def identities(self) -> list[str]:
+        """Every certificate the profile needs: the router's, the supervisor's, each service's."""
+        return ["router.router", f"supervisor.{self.name}"] + [self.identity(s) for s in self.services]
 
 
 def _get(table: dict, key: str, kind, where: str, default=None, choices=None):
@@ -87,7 +98,7 @@ def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
     return spec
 
 
-def load_profile(path: str | Path, router: str | None = None) -> Profile:
+def load_profile(path: str | Path, router: str | None = None, check_security: bool = True) -> Profile:
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
@@ -118,7 +129,26 @@ def load_profile(path: str | Path, router: str | None = None) -> Profile:
             if other not in names or other == spec.name:
                 raise ProfileError(f"services.{spec.name}.after: {other!r} is not another service of this profile")
     _check_no_cycle(specs)
-    return Profile(name, path, router, log_dir, specs, low_latency)
+    security = _get(data.get("zenoh", {}), "security", str, "zenoh", "") or None
+    profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None)
+    if check_security:
+        _check_security(profile)
+    return profile
+
+
+def _check_security(profile: Profile) -> None:
+    """A secured profile routes over tls/ and has every certificate it needs; tls/ needs security."""
+    scheme = profile.router.split("/", 1)[0]
+    if profile.security is None:
+        if scheme == "tls":
+            raise ProfileError("zenoh.router: a tls/ endpoint needs zenoh.security (a `dogged certs` directory)")
+        return
+    if scheme != "tls":
+        raise ProfileError(f"zenoh.router: with zenoh.security the router listens on tls/..., got {profile.router!r}")
+    missing = [cn for cn in profile.identities() if not (profile.security / f"{cn}.pem").is_file()]
+    if not (profile.security / "ca.pem").is_file() or missing:
+        raise ProfileError(f"zenoh.security: {profile.security} lacks {', '.join(missing) or 'ca.pem'}; make them "
+                           f"with `dogged certs {profile.security} --profile {profile.path}`")
 
 
 def _check_no_cycle(specs) -> None:

@@ -6,14 +6,17 @@ token, `dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<ve
 from __future__ import annotations
 
 import logging
+import os
 import sys
 import time
+from dataclasses import replace
 
 import zenoh
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, decode, encode, supervisor_key
 from services.bus import Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
 from services.realtime import hold_low_latency
+from services.security import BOX_ROLES
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 
@@ -40,7 +43,16 @@ class Supervisor:
         return box_command(spec.box, "--instance", spec.instance, "--name", spec.name,
                            "--connect", self.profile.router, *spec.args)
 
+    def secured(self, spec: ServiceSpec, identity: str) -> ServiceSpec:
+        """The spec with the profile's certificates and this service's identity in its environment."""
+        if self.profile.security is None:
+            return spec
+        env = {**spec.env, "DOGGED_SECURITY": str(self.profile.security), "DOGGED_IDENTITY": identity}
+        return replace(spec, env=env)
+
     def add(self, spec: ServiceSpec, command: list[str] | None = None) -> ManagedProcess:
+        if spec.box in BOX_ROLES:
+            spec = self.secured(spec, self.profile.identity(spec))
         proc = ManagedProcess(spec, command or self.command_for(spec), self.profile.log_dir, self.echo)
         proc.ready_key = InstanceKeys(spec.instance).alive(spec.role, spec.name)
         self.procs[spec.name] = proc
@@ -118,7 +130,9 @@ class Supervisor:
         prof = self.profile
         if prof.low_latency and hold_low_latency(log):
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
-        router = ServiceSpec("router", "router", "main", restart="on-failure")
+        router = self.secured(ServiceSpec("router", "router", "main", restart="on-failure"), "router.router")
+        if prof.security is not None:  # this process's own session, before it opens
+            os.environ.update(DOGGED_SECURITY=str(prof.security), DOGGED_IDENTITY=f"supervisor.{prof.name}")
         self.procs["router"] = ManagedProcess(router, box_command("router", "--listen", prof.router),
                                               prof.log_dir, self.echo)
         self.procs["router"].start()

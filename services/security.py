@@ -1,0 +1,176 @@
+"""Who may say what on the bus: mutual TLS identities and Zenoh access control (issue 12).
+
+Every process that joins a secured router shows a certificate signed by the deployment's own CA
+(`dogged certs`); anyone else cannot connect. A certificate's common name is its identity,
+`<role>.<name>` (`teacher.alice`, `platform.aibo`, `operator.bob`), and the router's access control
+lets each role say only its part, as the paper's Figure 1 draws it:
+
+| who | alone may |
+|---|---|
+| platform (and chain) | publish inputs, robot state, camera and clock; answer `spaces` |
+| handler | publish the robot's handle |
+| teacher | publish teacher proposals; hold teaching tokens |
+| learner | publish learner proposals; answer snapshot and history; hold learner tokens |
+| arbitrator | publish commands and training pairs; answer recent pairs; hold commanding tokens |
+| operator (a person) and supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor's verbs |
+| supervisor | answer the supervisor's verbs |
+
+Everything else (subscribing, status, querying the owners) stays open to every identity. Services
+join a secured router as clients, so that every message passes the router's access control.
+"""
+from __future__ import annotations
+
+import datetime
+import ipaddress
+import json
+import re
+from pathlib import Path
+
+ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "operator",
+         "supervisor", "router")
+# the box a supervisor profile names -> the role its certificate carries
+BOX_ROLES = {"aibo": "platform", "platform": "platform", "chain": "chain", "handler": "handler",
+             "perception": "perception", "demonstrator": "teacher", "learner": "learner",
+             "arbitrator": "arbitrator", "router": "router"}
+_IDENTITY = re.compile(r"^([a-z]+)\.([a-z0-9][a-z0-9_-]{0,63})$")
+
+# (what, key expressions, the roles that alone may do it); ACL message kinds of Zenoh 1.x
+_PUT, _ANSWER, _TOKEN, _ASK = ["put", "delete"], ["declare_queryable", "reply"], ["liveliness_token"], ["query"]
+OWNERS = (
+    ("inputs", _PUT, ["dl/*/input", "robot/*/state", "robot/*/camera", "robot/*/clock", "robot/*/applied"],
+     ("platform", "chain")),
+    ("spaces", _ANSWER, ["dl/*/spaces", "robot/*/spaces"], ("platform", "chain")),
+    ("handle", _PUT, ["robot/*/handle"], ("handler",)),
+    ("teacher proposals", _PUT, ["dl/*/proposal/teacher/**", "dl/*/proposal/default/**"], ("teacher",)),
+    ("teaching tokens", _TOKEN, ["dl/*/alive/teaching/**", "dl/*/alive/teacher/**"], ("teacher",)),
+    ("learner proposals", _PUT, ["dl/*/proposal/learner/**"], ("learner",)),
+    ("learner state", _ANSWER, ["dl/*/learner/**"], ("learner",)),
+    ("learner tokens", _TOKEN, ["dl/*/alive/learner/**"], ("learner",)),
+    ("commands", _PUT, ["dl/*/command", "dl/*/applied", "dl/*/train"], ("arbitrator",)),
+    ("recent pairs", _ANSWER, ["dl/*/train/recent"], ("arbitrator",)),
+    ("commanding tokens", _TOKEN, ["dl/*/alive/commanding/**", "dl/*/alive/arbitrator/**"], ("arbitrator",)),
+    ("operator verbs", _PUT, ["dl/*/teach", "dl/*/arbitrator/select", "robot/*/arena"], ("operator", "supervisor")),
+    ("supervisor verbs", _ASK, ["dogged/supervisor/**"], ("operator", "supervisor")),
+    ("supervisor answers", _ANSWER, ["dogged/supervisor/**"], ("supervisor",)),
+)
+
+
+def is_loopback(endpoint: str) -> bool:
+    """Whether a Zenoh endpoint (tcp/127.0.0.1:7447, tls/[::1]:7447, ...) listens on loopback only."""
+    host = endpoint.split("/", 1)[-1].rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False  # a host name: whoever resolves it may reach it
+
+
+def identity(role: str, name: str) -> str:
+    """The common name of a certificate: `<role>.<name>`, or ValueError."""
+    cn = f"{role}.{name}"
+    if role not in ROLES or not _IDENTITY.match(cn):
+        raise ValueError(f"identity {cn!r}: role must be one of {', '.join(ROLES)}, name lowercase letters, "
+                         f"digits, '-' or '_'")
+    return cn
+
+
+def access_control(identities: list[str]) -> dict:
+    """Zenoh's `access_control` section: each owned flow denied, on ingress at the router, to every
+    identity whose role does not own it."""
+    by_role: dict[str, list[str]] = {}
+    for cn in identities:
+        match = _IDENTITY.match(cn)
+        if match is None or match.group(1) not in ROLES:
+            raise ValueError(f"identity {cn!r} is not <role>.<name> with a known role")
+        by_role.setdefault(match.group(1), []).append(cn)
+    rules, policies = [], []
+    for i, (what, messages, keys, owners) in enumerate(OWNERS):
+        others = [role for role in by_role if role not in owners]
+        if not others:
+            continue
+        rules.append({"id": f"r{i}", "permission": "deny", "flows": ["ingress"], "messages": messages,
+                      "key_exprs": keys})
+        policies.append({"id": f"p{i}", "rules": [f"r{i}"], "subjects": [f"s-{role}" for role in others]})
+    subjects = [{"id": f"s-{role}", "cert_common_names": cns} for role, cns in sorted(by_role.items())]
+    return {"enabled": True, "default_permission": "allow", "rules": rules, "subjects": subjects,
+            "policies": policies}
+
+
+def tls_section(directory: Path, cn: str) -> dict:
+    """`transport/link/tls` for identity `cn`: its key and certificate, the CA, mutual TLS."""
+    directory = Path(directory)
+    key, cert, ca = directory / f"{cn}.key", directory / f"{cn}.pem", directory / "ca.pem"
+    for path in (key, cert, ca):
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: no such file (make it with `dogged certs {directory} ...`)")
+    return {"root_ca_certificate": str(ca), "enable_mtls": True, "verify_name_on_connect": False,
+            "listen_private_key": str(key), "listen_certificate": str(cert),
+            "connect_private_key": str(key), "connect_certificate": str(cert)}
+
+
+def secure(conf, directory: Path, cn: str, router: bool = False) -> None:
+    """Turn a zenoh.Config into a TLS one for `cn`; a router also gets the access control of every
+    identity in the directory."""
+    conf.insert_json5("transport/link/tls", json.dumps(tls_section(directory, cn)))
+    if router:
+        conf.insert_json5("access_control", json.dumps(access_control(identities_in(directory))))
+
+
+def identities_in(directory: Path) -> list[str]:
+    return sorted(p.stem for p in Path(directory).glob("*.pem") if p.name != "ca.pem")
+
+
+# --- certificates ------------------------------------------------------------------------------
+def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[Path]:
+    """A CA (kept, or made once) and a key and certificate per identity, in `directory`."""
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    now = datetime.datetime.now(datetime.timezone.utc)
+    ca_key_path, ca_path = directory / "ca.key", directory / "ca.pem"
+
+    def name(cn):
+        return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)])
+
+    def write_key(key, path):
+        path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                           serialization.NoEncryption()))
+        path.chmod(0o600)
+
+    if ca_key_path.exists() and ca_path.exists():
+        ca_key = serialization.load_pem_private_key(ca_key_path.read_bytes(), None)
+        ca_cert = x509.load_pem_x509_certificate(ca_path.read_bytes())
+    else:
+        ca_key = ec.generate_private_key(ec.SECP256R1())
+        ca_cert = (x509.CertificateBuilder().subject_name(name("dogged-ca")).issuer_name(name("dogged-ca"))
+                   .public_key(ca_key.public_key()).serial_number(x509.random_serial_number())
+                   .not_valid_before(now - datetime.timedelta(minutes=5))
+                   .not_valid_after(now + datetime.timedelta(days=10 * days))
+                   .add_extension(x509.BasicConstraints(ca=True, path_length=0), critical=True)
+                   .sign(ca_key, hashes.SHA256()))
+        write_key(ca_key, ca_key_path)
+        ca_path.write_bytes(ca_cert.public_bytes(serialization.Encoding.PEM))
+    written = []
+    for cn in identities:
+        if _IDENTITY.match(cn) is None or cn.split(".")[0] not in ROLES:
+            raise ValueError(f"identity {cn!r} is not <role>.<name> with a role among {', '.join(ROLES)}")
+        key = ec.generate_private_key(ec.SECP256R1())
+        cert = (x509.CertificateBuilder().subject_name(name(cn)).issuer_name(ca_cert.subject)
+                .public_key(key.public_key()).serial_number(x509.random_serial_number())
+                .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=days))
+                .add_extension(x509.SubjectAlternativeName([x509.DNSName("localhost"),
+                                                            x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+                               critical=False)
+                .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]),
+                               critical=False)
+                .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
+                .sign(ca_key, hashes.SHA256()))
+        write_key(key, directory / f"{cn}.key")
+        (directory / f"{cn}.pem").write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+        written.append(directory / f"{cn}.pem")
+    return written

@@ -1,0 +1,89 @@
+"""A profile turns security on with one setting (issue 12): `dogged certs` makes its identities,
+`dogged up` runs it over mutual TLS with access control, an operator's certificate steers it and a
+teacher's cannot; and `dogged up` will not open a router beyond loopback without it."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from services.security import is_loopback
+from services.supervisor.profile import ProfileError, load_profile
+from tests.harness import REPO, dogged, free_port, wait_until
+from tests.test_supervisor import PROFILE
+
+# the supervisor test's profile (platform, teacher, learner, arbitrator), with a [zenoh] table added
+ZENOH = """
+[zenoh]
+router = "{router}"
+{security}
+"""
+
+
+def write_profile(tmp_path, router, certs=None):
+    path = tmp_path / "suptest.toml"
+    security = f'security = "{certs}"' if certs else ""
+    path.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state")
+                    + ZENOH.format(router=router, security=security))
+    return path
+
+
+def cli(*args, identity=None, certs=None, timeout=60):
+    env = dict(os.environ)
+    if identity:
+        env.update(DOGGED_SECURITY=str(certs), DOGGED_IDENTITY=identity)
+    return subprocess.run([sys.executable, "-m", "services.cli", *args], cwd=REPO, capture_output=True, text=True,
+                          timeout=timeout, env=env)
+
+
+def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
+    certs, endpoint = tmp_path / "certs", f"tls/127.0.0.1:{free_port()}"
+    profile = write_profile(tmp_path, endpoint, certs)
+    made = cli("certs", str(certs), "--profile", str(profile), "--identity", "operator.bob")
+    assert made.returncode == 0, made.stderr
+    assert "7 certificates" in made.stdout and (certs / "teacher.teacher.pem").is_file()
+    sup = dogged("up", str(profile), "--quiet", log=tmp_path / "supervisor.log")
+    try:
+        def rows(identity="operator.bob"):
+            out = cli("--connect", endpoint, "ps", "--json", identity=identity, certs=certs, timeout=30)
+            return {r["name"]: r for r in json.loads(out.stdout)["services"]} if out.returncode == 0 else {}
+
+        ready = wait_until(lambda: (r := rows()) and all(x["state"] == "ready" for x in r.values()) and r, 90,
+                           "every service ready over TLS")
+        assert set(ready) == {"router", "platform", "teacher", "learner", "arbitrator"}
+        learning = wait_until(lambda: rows().get("learner", {}).get("rates", {}).get("learned", 0) > 50, 30,
+                              "the learner learning over TLS")
+        assert learning
+        refused = cli("--connect", endpoint, "down", identity="teacher.teacher", certs=certs, timeout=30)
+        assert refused.returncode != 0 and "did not answer" in refused.stderr
+        assert rows()["arbitrator"]["state"] == "ready" and sup.poll() is None  # still up
+    finally:
+        down = cli("--connect", endpoint, "down", identity="operator.bob", certs=certs)
+        code = sup.wait(60)
+    assert down.returncode == 0, down.stderr
+    assert code == 0
+
+
+def test_up_refuses_a_router_beyond_loopback_without_security(tmp_path):
+    profile = write_profile(tmp_path, f"tcp/0.0.0.0:{free_port()}")
+    out = cli("up", str(profile), "--quiet", timeout=30)
+    assert out.returncode == 2 and "beyond this machine" in out.stderr and "--insecure" in out.stderr
+
+
+def test_security_settings_are_checked_with_errors_that_name_the_field(tmp_path):
+    with pytest.raises(ProfileError, match=r"zenoh.router: a tls/ endpoint needs zenoh.security"):
+        load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447"))
+    with pytest.raises(ProfileError, match=r"zenoh.router: with zenoh.security the router listens on tls/"):
+        load_profile(write_profile(tmp_path, "tcp/127.0.0.1:7447", tmp_path / "certs"))
+    with pytest.raises(ProfileError, match=r"zenoh.security: .* lacks router.router, supervisor.suptest, "
+                                           r"platform.platform, teacher.teacher, learner.learner") as err:
+        load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447", tmp_path / "nothing"))
+    assert "make them with `dogged certs" in str(err.value)
+
+
+@pytest.mark.parametrize("endpoint,local", [("tcp/127.0.0.1:7447", True), ("tls/[::1]:7447", True),
+                                            ("tcp/localhost:7447", True), ("tcp/0.0.0.0:7447", False),
+                                            ("tls/192.168.1.5:7447", False), ("tcp/robot.lan:7447", False)])
+def test_loopback_endpoints(endpoint, local):
+    assert is_loopback(endpoint) == local
