@@ -14,7 +14,7 @@ def main(listen: list[str]) -> int:
     stop = StopFlag()
     with zenoh.open(zenoh_config(listen=listen, mode="router")) as session:
         held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.liveliness().declare_token("dogged/router"))
+        held.append(session.liveliness().declare_token("dogged/router"))  # the supervisor's ROUTER_TOKEN
         log.info("routing on %s", ", ".join(listen))
         while not stop:
             time.sleep(0.2)

@@ -25,6 +25,7 @@ class ManagedProcess:
         self.started_at = 0.0
         self.ready_at = 0.0
         self.restart_at = 0.0
+        self.died_at = 0.0  # when the supervisor saw it exit (monotonic)
         self.last_exit: int | None = None
         self.tail: deque[str] = deque(maxlen=2000)
         self._lock = threading.Lock()

@@ -21,6 +21,8 @@ from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 
 log = logging.getLogger("dogged.supervisor")
+ROUTER_TOKEN = "dogged/router"  # declared by services/boxes/router.py
+SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
 def box_command(box: str, *args: str) -> list[str]:
@@ -37,6 +39,7 @@ class Supervisor:
         self.stopping = False
         self.swap_count = 0
         self.deferred: list = []                   # verbs that arrived during a swap
+        self.teaching: dict[str, tuple] = {}       # teacher service -> (its switch, since when)
 
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
@@ -63,12 +66,16 @@ class Supervisor:
         now = time.monotonic()
         for proc in list(self.procs.values()):
             code = proc.poll()
+            if code is not None and proc.state not in ("backoff", "exited", "failed"):
+                proc.died_at = now
             if code is not None and not self.stopping:
                 if proc.should_restart(code):
                     proc.schedule_restart()
                 else:
                     proc.state = "exited" if code == 0 else "failed"
             if proc.state == "backoff" and now >= proc.restart_at and not self.stopping:
+                if proc.spec.box == "demonstrator":
+                    proc.command = self.restart_command(proc)
                 proc.start()
             if proc.state == "starting" and proc.ready_key in self.alive and proc.pid:
                 proc.state, proc.ready_at = "ready", now
@@ -76,11 +83,28 @@ class Supervisor:
     def all_ready(self) -> bool:
         return all(p.state == "ready" for p in self.procs.values() if p.spec.box != "router")
 
+    # --- a teacher's switch survives its restarts ------------------------------------------------
+    def note_teaching(self, key: str, on: bool) -> None:
+        """A teaching token comes and goes with the person's switch, and also when its teacher dies
+        (its token may be gone a moment before the process is): a token gone just before its process
+        died still counts as teaching (see restart_command)."""
+        parts = key.split("/")
+        if len(parts) == 5 and parts[2:4] == ["alive", "teaching"] and parts[4] in self.procs:
+            self.teaching[parts[4]] = (on, time.monotonic())
+
+    def restart_command(self, proc: ManagedProcess) -> list[str]:
+        """A teacher comes back as the person left it: switched on if it was teaching when it died."""
+        on, since = self.teaching.get(proc.spec.name, ("--on" in proc.spec.args, 0.0))
+        died_teaching = not on and proc.died_at - since < SWITCH_OFF_BEFORE_DEATH
+        command = [arg for arg in proc.command if arg != "--on"]
+        return command + ["--on"] if on or died_teaching else command
+
     # --- bus events -------------------------------------------------------------------------
     def on_event(self, item, session) -> None:
         tag, key, raw, kind = item
         if tag == "alive":
             (self.alive.add if kind == zenoh.SampleKind.PUT else self.alive.discard)(key)
+            self.note_teaching(key, kind == zenoh.SampleKind.PUT)
         elif tag == "status":
             try:
                 msg = decode(Status, raw, key)
@@ -141,6 +165,10 @@ class Supervisor:
             self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
             held = []  # declarations live as long as these references (a dropped token is undeclared)
             held.append(session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"),
+                                                                history=True))
+            # the router's own token: a restarted router is ready again once it is back (else `ps` said starting)
+            self.procs["router"].ready_key = ROUTER_TOKEN
+            held.append(session.liveliness().declare_subscriber(ROUTER_TOKEN, self.inbox.callback("alive"),
                                                                 history=True))
             held.append(session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status")))
             held.append(session.declare_queryable(supervisor_key(prof.name, "*"),
