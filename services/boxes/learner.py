@@ -21,6 +21,7 @@ from services.boxes.common import fetch_spaces
 from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
                           sensor_publisher, setup_logging)
 from services.learners import DEFAULT_LEARNER, LEARNERS, make_learner
+from services.learners.base import SnapshotError
 from services.pairlog import PairLog
 from services.params import parse_params
 
@@ -102,8 +103,14 @@ class LearnerNode:
         if history is None or len(history.x) != snap.n_learned:
             self.log.error("learner %s's history is incomplete; starting cold", old)
             return False
+        restored = None
         if snap.learner_class == type(self.model).__name__:
-            self.model = type(self.model).restore(snap.blob)
+            try:
+                restored = type(self.model).restore(snap.blob)
+            except SnapshotError as err:  # never run: learn the history instead
+                self.rejects(self.keys.snapshot(old), err)
+        if restored is not None:
+            self.model = restored
             self.model.serve_live()
             how = "snapshot"
         elif np.all(history.mask == 1):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import io
 import pickle
 from typing import NamedTuple
 
@@ -212,9 +213,16 @@ class Learner:
 
     @classmethod
     def restore(cls, blob: bytes) -> "Learner":
-        model = pickle.loads(blob)
+        """A learner from `snapshot()` bytes, which may come from the bus: only numpy arrays and the
+        learners' own state classes are built (SnapshotReader); anything else is refused unrun."""
+        try:
+            model = SnapshotReader(io.BytesIO(blob)).load()
+        except SnapshotError:
+            raise
+        except Exception as err:  # noqa: BLE001 - any malformed byte string is a refused snapshot
+            raise SnapshotError(f"not a learner snapshot: {type(err).__name__}: {err}") from None
         if not isinstance(model, cls):
-            raise TypeError(f"snapshot holds a {type(model).__name__}, not a {cls.__name__}")
+            raise SnapshotError(f"snapshot holds a {type(model).__name__}, not a {cls.__name__}")
         return model
 
     def __setstate__(self, state: dict) -> None:
@@ -228,6 +236,29 @@ class Learner:
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}(n_in={self.n_in}, n_out={self.n_out}, seed={self.seed}, {params})"
+
+
+class SnapshotError(ValueError):
+    """Bytes that are not a learner snapshot this version may load."""
+
+
+# what a snapshot may name: numpy's array and dtype builders, the registered learners and the state
+# classes they keep (a learner with a state class of its own adds it here); a pickle that names
+# anything else (os.system, builtins.eval, ...) is refused before anything of it runs
+NUMPY_GLOBALS = frozenset((module, name) for module in ("numpy", "numpy.core.multiarray", "numpy._core.multiarray",
+                                                         "numpy.core.numeric", "numpy._core.numeric")
+                          for name in ("dtype", "ndarray", "_reconstruct", "_frombuffer", "scalar"))
+STATE_CLASSES = {("services.learners.base", "TaughtRange"), ("services.learners.gp_evidence", "Hyper"),
+                 ("services.learners.novelty", "InputEnvelope")}
+
+
+class SnapshotReader(pickle.Unpickler):
+    def find_class(self, module: str, name: str):
+        from . import LEARNERS
+        learners = {(c.__module__, c.__name__) for c in LEARNERS.values()}
+        if (module, name) in NUMPY_GLOBALS or (module, name) in STATE_CLASSES or (module, name) in learners:
+            return super().find_class(module, name)
+        raise SnapshotError(f"a snapshot holds arrays and learner state only, not {module}.{name}")
 
 
 def check_positive(name: str, value, strictly: bool = True) -> float:
