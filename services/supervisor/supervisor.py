@@ -5,7 +5,9 @@ token, `dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<ve
 """
 from __future__ import annotations
 
+import collections
 import logging
+import math
 import os
 import sys
 import time
@@ -22,6 +24,9 @@ from services.supervisor.profile import Profile, ServiceSpec
 
 log = logging.getLogger("dogged.supervisor")
 ROUTER_TOKEN = "dogged/router"  # declared by services/boxes/router.py
+# the supervisor's verbs and the parameters each takes; anything else is refused with an answer
+VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"}, "down": set()}
+MAX_LOG_LINES = 10_000
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
@@ -40,6 +45,7 @@ class Supervisor:
         self.swap_count = 0
         self.deferred: list = []                   # verbs that arrived during a swap
         self.teaching: dict[str, tuple] = {}       # teacher service -> (its switch, since when)
+        self.refused: collections.Counter = collections.Counter()  # verbs answered with an error
 
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
@@ -115,25 +121,42 @@ class Supervisor:
             self.on_control(key.rsplit("/", 1)[-1], raw, session)
 
     def on_control(self, verb: str, query: zenoh.Query, session) -> None:
-        params = query.parameters
-        if verb == "ps":
-            reply = ControlReply(True, "", {"profile": self.profile.name, "services": self.ps()})
-        elif verb == "logs":
-            reply = self.logs(params.get("service", ""), int(params.get("lines", "50")))
-        elif verb == "swap":
-            reply = self.swap(session, params.get("service", ""), params.get("spec", ""))
-        else:  # down
-            self.stopping = True
-            reply = ControlReply(True, f"stopping profile {self.profile.name}", {})
+        try:
+            reply = self.answer(verb, query.parameters, session)
+        except Exception as err:  # noqa: BLE001 - a verb that goes wrong is an answer, never the end
+            log.exception("%s failed", verb)
+            reply = ControlReply(False, f"{verb} failed: {type(err).__name__}: {err}", {})
+        if not reply.ok:
+            self.refused[verb if verb in VERBS else "unknown"] += 1
         query.reply(str(query.key_expr), encode(reply))
+
+    def answer(self, verb: str, params, session) -> ControlReply:
+        unknown = sorted({name for name, _ in params} - VERBS.get(verb, set()))
+        if verb not in VERBS:
+            return ControlReply(False, f"no verb {verb[:64]!r}; verbs: {', '.join(VERBS)}", {})
+        if unknown:
+            return ControlReply(False, f"{verb}: unknown parameter(s) {', '.join(unknown)[:200]}", {})
+        if verb == "ps":
+            return ControlReply(True, "", {"profile": self.profile.name, "services": self.ps(),
+                                           "refused": dict(self.refused)})
+        if verb == "logs":
+            lines = params.get("lines", "50")
+            if not (lines.isdigit() and 1 <= int(lines) <= MAX_LOG_LINES):
+                return ControlReply(False, f"logs: lines must be an integer 1..{MAX_LOG_LINES}, got {lines[:32]!r}", {})
+            return self.logs(params.get("service", ""), int(lines))
+        if verb == "swap":
+            return self.swap(session, params.get("service", ""), params.get("spec", ""))
+        self.stopping = True
+        return ControlReply(True, f"stopping profile {self.profile.name}", {})
 
     def ps(self) -> list[dict]:
         rows = []
         for proc in self.procs.values():
             row = proc.describe()
             status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
-            rates = status.get("state", {}).get("rates", {})
-            row["rates"] = {k: v for k, v in rates.items() if v}
+            rates = status.get("state", {}).get("rates", {})  # from the bus: a forged one is left out
+            row["rates"] = {k: v for k, v in rates.items() if isinstance(k, str) and type(v) in (int, float)
+                            and math.isfinite(v) and v} if isinstance(rates, dict) else {}
             rows.append(row)
         return rows
 

@@ -23,6 +23,9 @@ def parse_learner_spec(text: str) -> tuple[str, list[str]]:
         params += ["--param", item]
     if not name:
         raise ValueError("learner spec is empty; expected e.g. 'sogp' or 'lwpr:init_d=25'")
+    from services.learners import LEARNERS
+    if name not in LEARNERS:  # refused at once, not after a learner that cannot start has timed out
+        raise ValueError(f"no learner {name!r}; learners: {', '.join(sorted(LEARNERS))}")
     return name, params
 
 

@@ -1,0 +1,53 @@
+"""A stranger on the bus cannot take the supervisor down (issue 12): bad parameters, unknown verbs,
+a swap to no learner and a forged status are answered or ignored; the deployment keeps running."""
+import json
+import time
+
+import zenoh
+
+from bus_schema import ControlReply, Status, decode, encode, supervisor_key
+from services.bus import zenoh_config
+from tests.harness import dogged, dogged_ok, free_port, wait_until
+from tests.test_supervisor import PROFILE, ps
+
+
+def ask(session, verb: str, parameters: str = "") -> ControlReply:
+    key = supervisor_key("suptest", verb)
+    replies = [r for r in session.get(f"{key}?{parameters}" if parameters else key, timeout=10.0) if r.ok is not None]
+    assert replies, f"no answer to {verb}?{parameters}"
+    return decode(ControlReply, replies[0].ok.payload.to_bytes(), key)
+
+
+def test_hostile_queries_and_a_forged_status_leave_the_supervisor_running(tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    profile = tmp_path / "suptest.toml"
+    profile.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state"))
+    sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
+    try:
+        wait_until(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()), 90, "ready")
+        with zenoh.open(zenoh_config(connect=[endpoint], mode="client")) as session:
+            answers = {f"{verb}?{params}": ask(session, verb, params) for verb, params in (
+                ("logs", "service=learner;lines=abc"), ("logs", "service=learner;lines=-5"),
+                ("logs", "service=learner;lines=99999999999999999999"), ("logs", "service=nobody"),
+                ("ps", "evil=1"), ("shutdown", ""), ("DOWN", ""), ("down", "now=1"))}
+            began = time.monotonic()
+            answers["swap?spec=nosuch"] = ask(session, "swap", "spec=nosuch")
+            swap_seconds = time.monotonic() - began
+            forged = Status("learner", "learner", 1, {"pairs": 1}, {"rates": [1, 2, 3]})
+            for name in ("learner", "arbitrator"):
+                session.put(f"dl/main/status/{name}/{name}", encode(forged))
+            time.sleep(1.5)
+            listed = ask(session, "ps")
+        assert {k: a.ok for k, a in answers.items()} == {k: False for k in answers}, \
+            {k: a.text for k, a in answers.items()}
+        assert "lines must be an integer" in answers["logs?service=learner;lines=abc"].text
+        assert "no verb 'shutdown'" in answers["shutdown?"].text
+        assert "no learner 'nosuch'" in answers["swap?spec=nosuch"].text and swap_seconds < 5.0
+        assert listed.ok and listed.data["refused"]["logs"] == 4 and listed.data["refused"]["unknown"] == 2
+        assert sup.poll() is None and all(r["state"] == "ready" for r in ps(endpoint).values())
+        assert dogged_ok("logs", "learner", "-n", "5", endpoint=endpoint).returncode == 0
+        assert json.loads(dogged_ok("ps", "--json", endpoint=endpoint).stdout)["services"]
+    finally:
+        down = dogged_ok("down", endpoint=endpoint)
+        code = sup.wait(60)
+    assert down.returncode == 0 and code == 0
