@@ -58,9 +58,20 @@ class LearnerNode:
         if pair.seq <= self.seq:
             self.counts["duplicates"] += 1
             return
+        if pair.seq > self.seq + PLAUSIBLE_GAP and not self.confirmed(pair):
+            # a seq far ahead, unless the arbitrator has it, would make every later pair a "duplicate"
+            self.rejects(self.keys.train, ValueError(f"training pair seq {pair.seq} jumps {pair.seq - self.seq} "
+                                                     f"past {self.seq} and the arbitrator does not confirm it"))
+            return
         if pair.seq > self.seq + 1:
             self.fill_gap(pair.seq - 1)
         self.incorporate(pair.x, pair.y, pair.epoch, pair.seq, pair, pair.mask)
+
+    def confirmed(self, pair: TrainingPair) -> bool:
+        """Whether the arbitrator's recent pairs hold this very pair (its epoch, seq and input)."""
+        batch = self.query(self.keys.train_recent, PairBatch, f"from={pair.seq};to={pair.seq}")
+        return (batch is not None and batch.epoch == pair.epoch and batch.first_seq == pair.seq
+                and len(batch.x) == 1 and np.array_equal(batch.x[0], pair.x))
 
     def fill_gap(self, last: int):
         first = self.seq + 1
@@ -145,6 +156,11 @@ class LearnerNode:
                                              self.model.snapshot())))
             return
         params = query.parameters
+        problem = history_query_problem(params)
+        if problem:
+            self.rejects(key, ValueError(problem))
+            query.reply_err(problem.encode())
+            return
         n = len(self.pairs)
         upto = params.get("upto")
         if upto is not None and params.get("epoch") == self.epoch:
@@ -155,6 +171,21 @@ class LearnerNode:
     def status(self):
         counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs))
         return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size)}
+
+
+PLAUSIBLE_GAP = 65536  # the arbitrator's recent pairs: a longer jump in seq must be confirmed by it
+
+
+def history_query_problem(params) -> str:
+    """What is wrong with a history query's parameters (epoch=<id>;upto=<seq>), or ''."""
+    for name, value in params:
+        if name == "upto" and not (value.isdigit() and len(value) <= 18):
+            return f"history: upto must be a sequence number, got {value[:32]!r}"
+        if name == "epoch" and len(value) > 64:
+            return "history: epoch longer than 64 characters"
+        if name not in ("upto", "epoch"):
+            return f"history: unknown parameter {name[:32]!r}; known: epoch, upto"
+    return ""
 
 
 def compile_kernels(model) -> None:

@@ -1,0 +1,80 @@
+"""Valid-but-hostile values at the learner service (issue 12): a training pair whose seq jumps by a
+billion, and history queries with bad parameters. Rejected, counted, and learning goes on."""
+import collections
+import logging
+
+import numpy as np
+import zenoh
+
+from bus_schema import InstanceKeys, PairBatch, TrainingPair
+from services.boxes.learner import LearnerNode, history_query_problem
+from services.bus import Rejects
+from services.learners import make_learner
+from services.pairlog import PairLog
+
+
+def node(recent: dict | None = None) -> LearnerNode:
+    """The learner service's logic with the bus replaced: `recent` are the arbitrator's pairs by seq."""
+    n = LearnerNode.__new__(LearnerNode)
+    n.model, n.pairs, n.log, n.name = make_learner("knn", 2, 1), PairLog(2, 1, None), logging.getLogger("t"), "learner"
+    n.keys, n.rejects, n.counts, n.epoch, n.seq = InstanceKeys("main"), Rejects(n.log), collections.Counter(), "", 0
+    n.dims = {"x": 2, "y": 1, "mask": 1}
+
+    def query(key, cls, parameters="", timeout=5.0):
+        seq = int(dict(p.split("=") for p in parameters.split(";"))["from"])
+        pair = (recent or {}).get(seq)
+        return None if pair is None else PairBatch(pair.epoch, seq, pair.x[None], pair.y[None], np.ones((1, 1)))
+    n.query = query
+    return n
+
+
+def pair(seq, epoch="e1"):
+    return TrainingPair(epoch, seq, seq, np.array([0.1 * seq % 1, 0.2]), np.array([0.5]), "teacher/t", None)
+
+
+def test_a_seq_that_jumps_by_a_billion_is_rejected_and_learning_goes_on():
+    n = node()
+    for seq in (1, 2, 3):
+        n.on_pair(pair(seq))
+    n.on_pair(pair(3 + 10 ** 9))
+    assert n.seq == 3 and n.rejects.total == 1
+    n.on_pair(pair(4))
+    assert n.seq == 4 and n.counts["learned"] == 4 and n.counts["duplicates"] == 0
+
+
+def test_a_long_jump_the_arbitrator_confirms_is_taken():
+    far = pair(100_000)
+    n = node(recent={100_000: far})
+    n.on_pair(pair(1))
+    n.on_pair(far)
+    assert n.seq == 100_000 and n.rejects.total == 0 and n.counts["pairs_lost"] == 100_000 - 2
+
+
+class Query:
+    def __init__(self, key, parameters):
+        self.key_expr, self.parameters, self.errors, self.replies = key, zenoh.Parameters(parameters), [], []
+
+    def reply_err(self, payload):
+        self.errors.append(payload)
+
+    def reply(self, key, payload):
+        self.replies.append(payload)
+
+
+def test_history_queries_with_bad_parameters_get_an_error_answer():
+    n = node()
+    for seq in (1, 2):
+        n.on_pair(pair(seq))
+    for params in ("upto=abc", "upto=-1", "upto=99999999999999999999", "epoch=" + "x" * 65, "evil=1"):
+        q = Query(n.keys.history("learner"), params)
+        n.on_query(q)
+        assert q.errors and not q.replies, params
+    good = Query(n.keys.history("learner"), "epoch=e1;upto=1")
+    n.on_query(good)
+    assert good.replies and not good.errors and n.rejects.total == 5
+
+
+def test_history_query_problems_name_the_parameter():
+    assert history_query_problem(zenoh.Parameters("upto=abc")).startswith("history: upto must be")
+    assert "unknown parameter 'x'" in history_query_problem(zenoh.Parameters("x=1"))
+    assert history_query_problem(zenoh.Parameters("epoch=abc;upto=12")) == ""
