@@ -227,12 +227,20 @@ class ArenaReset:
     seed: int
     balls: dict
 
+    MAX_SEED, MAX_METRES, MAX_BALLS = 2 ** 32 - 1, 100.0, 16
+
     def check(self, key: str) -> None:
+        if not 0 <= self.seed <= self.MAX_SEED:  # checked before anything is reset
+            raise SchemaError(key, "seed", f"expected 0..{self.MAX_SEED}, got {self.seed}")
+        if len(self.balls) > self.MAX_BALLS:
+            raise SchemaError(key, "balls", f"at most {self.MAX_BALLS} balls, got {len(self.balls)}")
         for name, xy in self.balls.items():
             ok = xy is None or (isinstance(xy, list) and len(xy) == 2 and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in xy))
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                and abs(v) <= self.MAX_METRES for v in xy))
             if not isinstance(name, str) or not ok:
-                raise SchemaError(key, f"balls.{name}", "expected [x, y] in metres (finite) or nil to hide")
+                raise SchemaError(key, f"balls.{name}", f"expected [x, y] within {self.MAX_METRES:g} m (finite) "
+                                                        "or nil to hide")
 
 
 @dataclass(frozen=True, slots=True)

@@ -64,12 +64,19 @@ def test_aibo_service_on_the_bus(router, tmp_path):
         assert np.allclose(latest(states, RobotState).balls["pink"][:2], [0.7, 0.2], atol=0.05)
         refused = dogged_ok("arena", "--ball", "blue=0.5,0", endpoint=router, timeout=30)
         assert refused.returncode == 1 and "did not confirm the arena reset" in refused.stderr
+        # hostile but well-formed resets are refused before anything is reset (seed -1 crashed the Aibo
+        # after it had rebuilt the world: issue 12)
+        resets = probe.counter("aibo/aibo", "resets")
+        for hostile in (ArenaReset(-1, {}), ArenaReset(2 ** 40, {}), ArenaReset(1, {"pink": [1e9, 0.0]})):
+            probe.put("robot/aibo/arena", encode(hostile))
+        probe.wait_for(lambda: probe.counter("aibo/aibo", "rejected") == 4, 10, "three hostile resets refused")
+        assert probe.counter("aibo/aibo", "resets") == resets and aibo.poll() is None
 
         # watchdog: no fresh command -> the robot holds still
         held = probe.counter("aibo/aibo", "held")
         time.sleep(2.5)
         assert probe.counter("aibo/aibo", "held") > held + 20
-        assert probe.counter("aibo/aibo", "rejected") == 1  # the unknown ball, and nothing else
+        assert probe.counter("aibo/aibo", "rejected") == 4  # the unknown ball and the three hostile resets
         token.undeclare()
     finally:
         probe.close()
