@@ -10,9 +10,10 @@ those cannot tell which inputs matter), then every `refit_every`, and early when
 surprises the fit or spreads an input further than the fit saw: inputs that do not explain the
 teaching (distractors, readings dragged along) grow long length scales and stop mattering. Serving
 live (`serve_live`, the learner service) a fit runs on a thread of its own and is applied when done;
-teaching that went on meanwhile is fitted next, so when teaching stops the last fit has seen it all. Far from what it was taught the posterior reverts to the taught mean, and
-an answer is held to the taught range plus 10 % of its span, unless the evidence says the map is
-linear and the posterior trusts the answer more than the held one: a linear map extends past the
+teaching that went on meanwhile is fitted next, so when teaching stops the last fit has seen it all.
+Far from what it was taught the posterior reverts to the taught mean, and an answer is held to
+the taught range plus 10 % of its span, unless the evidence says the map is linear and the
+posterior trusts the answer more than the held one: a linear map extends past the
 part of it that was shown (the mirroring task, from 15-30 samples), a curved one's trend is not
 followed away from what was taught.
 
