@@ -26,6 +26,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from benchmarks.loop import run_platform  # noqa: E402
 from services.experiments.faults import KILLED, STOPPED, run_faults  # noqa: E402
 from services.security import make_certs  # noqa: E402
 from tests.harness import dogged, free_port, stop  # noqa: E402
@@ -39,25 +40,20 @@ def tick_latency(work: Path, secured: bool, ticks: int) -> float:
     """p50 (ms) of the loop's tick (point platform at 100 Hz -> learner, teacher, arbitrator -> back),
     as deployed: peers on plain TCP, or clients of a TLS router enforcing access control."""
     scheme = "tls" if secured else "tcp"
-    router, certs = f"{scheme}/127.0.0.1:{free_port()}", work / "certs"
+    work, router = work / scheme, f"{scheme}/127.0.0.1:{free_port()}"
+    work.mkdir()
     if secured:
-        make_certs(certs, ["router.router", "platform.platform"] + [cn for _, cn, _ in LOOP])
+        make_certs(work, ["router.router", "platform.platform"] + [cn for _, cn, _ in LOOP])
 
     def env(cn):
-        return {"DOGGED_SECURITY": str(certs), "DOGGED_IDENTITY": cn} if secured else {}
+        return {"DOGGED_SECURITY": str(work), "DOGGED_IDENTITY": cn} if secured else None
 
-    label = scheme
-    boxes = [dogged("run", "router", "--listen", router, log=work / f"router-{label}.log", env=env("router.router"))]
-    boxes += [dogged("run", box, "--connect", router, *args, log=work / f"{box}-{label}.log", env=env(cn))
+    boxes = [dogged("run", "router", "--listen", router, log=work / "router.log", env=env("router.router"))]
+    boxes += [dogged("run", box, "--connect", router, *args, log=work / f"{box}.log", env=env(cn))
               for box, cn, args in LOOP]
     try:
         time.sleep(3.0)  # up, kernels compiled
-        latencies = work / f"latency-{label}.npy"
-        platform = dogged("run", "platform", "--param", "dims=2", "--rate", "100", "--max-ticks", str(ticks),
-                          "--latency-log", str(latencies), "--connect", router, log=work / f"platform-{label}.log",
-                          env=env("platform.platform"))
-        platform.wait(timeout=ticks / 100 + 60)
-        ms = np.load(latencies) * 1e3
+        ms, _ = run_platform(router, 100, ticks, work, env=env("platform.platform"))
         return float(np.percentile(ms[len(ms) // 20:], 50))  # the first 5 % include connection set-up
     finally:
         stop(*reversed(boxes))

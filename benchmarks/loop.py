@@ -46,11 +46,11 @@ def dogged_python(*args: str):
     return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
-def run_platform(router: str, rate: float, ticks: int, work: Path) -> tuple[np.ndarray, dict]:
+def run_platform(router: str, rate: float, ticks: int, work: Path, env: dict | None = None) -> tuple[np.ndarray, dict]:
     lat, summary = work / f"lat-{rate:g}.npy", work / f"sum-{rate:g}.json"
     proc = dogged("run", "platform", "--param", "dims=2", "--rate", str(rate), "--max-ticks", str(ticks),
                   "--latency-log", str(lat), "--summary", str(summary), "--connect", router,
-                  log=work / f"platform-{rate:g}.log")
+                  log=work / f"platform-{rate:g}.log", env=env)
     proc.wait(timeout=ticks / rate + 60)
     return np.load(lat) * 1e3, json.loads(summary.read_text())
 

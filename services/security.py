@@ -69,10 +69,17 @@ def is_loopback(endpoint: str) -> bool:
 def identity(role: str, name: str) -> str:
     """The common name of a certificate: `<role>.<name>`, or ValueError."""
     cn = f"{role}.{name}"
-    if role not in ROLES or not _IDENTITY.match(cn):
-        raise ValueError(f"identity {cn!r}: role must be one of {', '.join(ROLES)}, name lowercase letters, "
-                         f"digits, '-' or '_'")
+    role_of(cn)
     return cn
+
+
+def role_of(cn: str) -> str:
+    """The role of identity `cn` (<role>.<name>), or ValueError saying what an identity is."""
+    match = _IDENTITY.match(cn)
+    if match is None or match.group(1) not in ROLES:
+        raise ValueError(f"identity {cn!r} is not <role>.<name>: role must be one of {', '.join(ROLES)}, "
+                         f"name lowercase letters, digits, '-' or '_'")
+    return match.group(1)
 
 
 def access_control(identities: list[str]) -> dict:
@@ -80,10 +87,7 @@ def access_control(identities: list[str]) -> dict:
     identity whose role does not own it."""
     by_role: dict[str, list[str]] = {}
     for cn in identities:
-        match = _IDENTITY.match(cn)
-        if match is None or match.group(1) not in ROLES:
-            raise ValueError(f"identity {cn!r} is not <role>.<name> with a known role")
-        by_role.setdefault(match.group(1), []).append(cn)
+        by_role.setdefault(role_of(cn), []).append(cn)
     rules, policies = [], []
     for i, (what, messages, keys, owners) in enumerate(OWNERS):
         others = [role for role in by_role if role not in owners]
@@ -129,48 +133,44 @@ def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[
     from cryptography.hazmat.primitives.asymmetric import ec
     from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
+    for cn in identities:  # all checked before anything is written
+        role_of(cn)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     now = datetime.datetime.now(datetime.timezone.utc)
-    ca_key_path, ca_path = directory / "ca.key", directory / "ca.pem"
 
-    def name(cn):
-        return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)])
+    def certificate(cn: str, key, issuer_name, issuer_key, valid_days: int, extensions) -> x509.Certificate:
+        builder = (x509.CertificateBuilder().subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)]))
+                   .issuer_name(issuer_name or x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)]))
+                   .public_key(key.public_key()).serial_number(x509.random_serial_number())
+                   .not_valid_before(now - datetime.timedelta(minutes=5))
+                   .not_valid_after(now + datetime.timedelta(days=valid_days)))
+        for extension, critical in extensions:
+            builder = builder.add_extension(extension, critical=critical)
+        return builder.sign(issuer_key or key, hashes.SHA256())
 
-    def write_key(key, path):
-        path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                           serialization.NoEncryption()))
-        path.chmod(0o600)
+    def write(key, cert, stem: str) -> Path:
+        key_path, cert_path = directory / f"{stem}.key", directory / f"{stem}.pem"
+        key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                               serialization.NoEncryption()))
+        key_path.chmod(0o600)
+        cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+        return cert_path
 
-    if ca_key_path.exists() and ca_path.exists():
-        ca_key = serialization.load_pem_private_key(ca_key_path.read_bytes(), None)
-        ca_cert = x509.load_pem_x509_certificate(ca_path.read_bytes())
+    if (directory / "ca.key").exists() and (directory / "ca.pem").exists():
+        ca_key = serialization.load_pem_private_key((directory / "ca.key").read_bytes(), None)
+        ca_cert = x509.load_pem_x509_certificate((directory / "ca.pem").read_bytes())
     else:
         ca_key = ec.generate_private_key(ec.SECP256R1())
-        ca_cert = (x509.CertificateBuilder().subject_name(name("dogged-ca")).issuer_name(name("dogged-ca"))
-                   .public_key(ca_key.public_key()).serial_number(x509.random_serial_number())
-                   .not_valid_before(now - datetime.timedelta(minutes=5))
-                   .not_valid_after(now + datetime.timedelta(days=10 * days))
-                   .add_extension(x509.BasicConstraints(ca=True, path_length=0), critical=True)
-                   .sign(ca_key, hashes.SHA256()))
-        write_key(ca_key, ca_key_path)
-        ca_path.write_bytes(ca_cert.public_bytes(serialization.Encoding.PEM))
+        ca_cert = certificate("dogged-ca", ca_key, None, None, 10 * days,
+                              [(x509.BasicConstraints(ca=True, path_length=0), True)])
+        write(ca_key, ca_cert, "ca")
+    loopback = [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]
+    leaf = [(x509.SubjectAlternativeName(loopback), False),
+            (x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]), False),
+            (x509.BasicConstraints(ca=False, path_length=None), True)]
     written = []
     for cn in identities:
-        if _IDENTITY.match(cn) is None or cn.split(".")[0] not in ROLES:
-            raise ValueError(f"identity {cn!r} is not <role>.<name> with a role among {', '.join(ROLES)}")
         key = ec.generate_private_key(ec.SECP256R1())
-        cert = (x509.CertificateBuilder().subject_name(name(cn)).issuer_name(ca_cert.subject)
-                .public_key(key.public_key()).serial_number(x509.random_serial_number())
-                .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=days))
-                .add_extension(x509.SubjectAlternativeName([x509.DNSName("localhost"),
-                                                            x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
-                               critical=False)
-                .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]),
-                               critical=False)
-                .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-                .sign(ca_key, hashes.SHA256()))
-        write_key(key, directory / f"{cn}.key")
-        (directory / f"{cn}.pem").write_bytes(cert.public_bytes(serialization.Encoding.PEM))
-        written.append(directory / f"{cn}.pem")
+        written.append(write(key, certificate(cn, key, ca_cert.subject, ca_key, days, leaf), cn))
     return written

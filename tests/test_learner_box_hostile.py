@@ -2,6 +2,7 @@
 billion, and history queries with bad parameters. Rejected, counted, and learning goes on."""
 import collections
 import logging
+import math
 
 import numpy as np
 import zenoh
@@ -18,7 +19,7 @@ def node(recent: dict | None = None) -> LearnerNode:
     n = LearnerNode.__new__(LearnerNode)
     n.model, n.pairs, n.log, n.name = make_learner("knn", 2, 1), PairLog(2, 1, None), logging.getLogger("t"), "learner"
     n.keys, n.rejects, n.counts, n.epoch, n.seq = InstanceKeys("main"), Rejects(n.log), collections.Counter(), "", 0
-    n.dims = {"x": 2, "y": 1, "mask": 1}
+    n.dims, n._last_confirm = {"x": 2, "y": 1, "mask": 1}, -math.inf
 
     def query(key, cls, parameters="", timeout=5.0):
         seq = int(dict(p.split("=") for p in parameters.split(";"))["from"])

@@ -1,7 +1,6 @@
 """A snapshot comes over the bus during a hot-swap: whatever a stranger answers there must never run
 (issue 12). Only numpy arrays and the learners' own state are built from it; anything else is
 refused before any of it runs, and the swapping learner learns the old one's history instead."""
-import os
 import pickle
 
 import numpy as np
@@ -41,32 +40,18 @@ def test_restore_refuses_another_learners_snapshot():
         LEARNERS["gp"].restore(make_learner("knn", 2, 1).snapshot())
 
 
-def test_a_swap_answered_with_a_hostile_snapshot_learns_the_history_and_runs_nothing(tmp_path):
-    from services.boxes.learner import LearnerNode
-
-    class Log:
-        def __init__(self):
-            self.lines = []
-
-        def __getattr__(self, level):
-            return lambda *a: self.lines.append((level, a[0] % a[1:] if len(a) > 1 else a[0]))
+def test_a_swap_answered_with_a_hostile_snapshot_learns_the_history_and_runs_nothing(tmp_path, caplog):
+    from tests.test_learner_box_hostile import node
 
     marker = tmp_path / "ran"
     rng = np.random.default_rng(0)
     xs, ys = rng.uniform(-1, 1, (40, 2)), rng.uniform(-1, 1, (40, 1))
     answers = {"snapshot": Snapshot("KNN", "e1", 40, 40, pickle.dumps(Planted(marker))),
                "history": PairBatch("e1", 1, xs, ys, np.ones_like(ys))}
-
-    from services.pairlog import PairLog
-    node = LearnerNode.__new__(LearnerNode)  # the node's logic, without a bus
-    node.model, node.pairs, node.log = make_learner("knn", 2, 1), PairLog(2, 1, None), Log()
-    from bus_schema import InstanceKeys
-    from services.bus import Rejects
-    import collections
-    node.keys, node.rejects, node.counts, node.epoch, node.seq = InstanceKeys("main"), Rejects(node.log), \
-        collections.Counter(), "", 0
-    node.query = lambda key, cls, parameters="", timeout=5.0: answers[key.rsplit("/", 1)[-1]]
-    assert node.warm_from("old")
+    n = node()  # the learner service's logic, its queries answered here
+    n.query = lambda key, cls, parameters="", timeout=5.0: answers[key.rsplit("/", 1)[-1]]
+    with caplog.at_level("INFO"):
+        assert n.warm_from("old")
     assert not marker.exists()
-    assert node.rejects.total == 1 and node.model.n_learned == 40 and len(node.pairs) == 40
-    assert any("training on 40 pairs" in line for _, line in node.log.lines)
+    assert n.rejects.total == 1 and n.model.n_learned == 40 and len(n.pairs) == 40
+    assert "training on 40 pairs" in caplog.text

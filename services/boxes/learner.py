@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import math
 import time
 from pathlib import Path
 
@@ -32,6 +33,7 @@ class LearnerNode:
         self.output_space = output_space  # every proposal is clipped to it
         self.dims = {"x": model.n_in, "y": model.n_out, "mask": model.n_out}
         self.epoch, self.seq = "", 0
+        self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
         self.rejects, self.counts = Rejects(log), collections.Counter()
         self.pub = sensor_publisher(session, keys.proposal("learner", name))
 
@@ -68,8 +70,13 @@ class LearnerNode:
         self.incorporate(pair.x, pair.y, pair.epoch, pair.seq, pair, pair.mask)
 
     def confirmed(self, pair: TrainingPair) -> bool:
-        """Whether the arbitrator's recent pairs hold this very pair (its epoch, seq and input)."""
-        batch = self.query(self.keys.train_recent, PairBatch, f"from={pair.seq};to={pair.seq}")
+        """Whether the arbitrator's recent pairs hold this very pair (its epoch, seq and input). At most
+        one such query a second: a flood of hostile jumps must not stall the loop on queries."""
+        now = time.monotonic()
+        if now - self._last_confirm < 1.0:
+            return False
+        self._last_confirm = now
+        batch = self.query(self.keys.train_recent, PairBatch, f"from={pair.seq};to={pair.seq}", timeout=1.0)
         return (batch is not None and batch.epoch == pair.epoch and batch.first_seq == pair.seq
                 and len(batch.x) == 1 and np.array_equal(batch.x[0], pair.x))
 

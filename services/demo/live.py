@@ -105,8 +105,9 @@ class LiveRun:
         for held in self._held:
             held.undeclare()
         self.session.close()
-        subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "down"], cwd=REPO,
-                       capture_output=True, timeout=60)
+        if self.supervisor.poll() is None:  # (a fault suite may have killed it)
+            subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "down"], cwd=REPO,
+                           capture_output=True, timeout=60)
         try:
             return self.supervisor.wait(60)
         finally:

@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from bus_schema import Command, Status, TrainingPair, decode
+from bus_schema import SchemaError, Status, TrainingPair, decode
 from services.demo.live import LiveRun
 
 RATE = 30.0
@@ -86,13 +86,16 @@ class BusRecord:
         self.command_times.append(time.monotonic())
 
     def _on_pair(self, sample) -> None:
-        pair = decode(TrainingPair, sample.payload.to_bytes(), str(sample.key_expr))
+        try:
+            pair = decode(TrainingPair, sample.payload.to_bytes(), str(sample.key_expr))
+        except SchemaError:  # a record, not a service: what does not decode is not counted
+            return
         self.pair_seqs[pair.epoch] = max(pair.seq, self.pair_seqs.get(pair.epoch, 0))
 
     def _on_status(self, sample) -> None:
         try:
             status = decode(Status, sample.payload.to_bytes(), str(sample.key_expr))
-        except Exception:  # noqa: BLE001 - a record, not a service: skip what does not decode
+        except SchemaError:
             return
         self.statuses[status.name] = status
         if status.role == "arbitrator":
@@ -110,22 +113,19 @@ class BusRecord:
             return 0, 0
         return int(status.counters.get("pairs", 0)), int(status.counters.get("pairs_lost", 0))
 
-    def gap_after(self, start: float) -> tuple[float, float]:
-        """(the longest gap between commands that ended after `start`, when it ended)."""
+    def gap_after(self, start: float) -> float:
+        """The longest gap between commands that ended after `start` (counted from `start` at most)."""
         times = [t for t in self.command_times if t >= start - 1.0]
-        best, end = 0.0, start
-        for before, after in zip(times, times[1:]):
-            if after > start and after - max(before, start) > best:
-                best, end = after - max(before, start), after
-        return best, end
+        return max((after - max(before, start) for before, after in zip(times, times[1:]) if after > start),
+                   default=0.0)
 
     def close(self) -> None:
         for held in self._held:
             held.undeclare()
 
 
-def wait_restarted(run: LiveRun, service: str, pid: int, timeout: float = 20.0) -> bool:
-    """The service back (a new pid, or the same one after SIGSTOP) and every service ready."""
+def wait_restarted(run: LiveRun, service: str, timeout: float = 20.0) -> bool:
+    """The service back (restarted, or continued after SIGSTOP) and every service ready."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         rows = run.ps()
@@ -158,10 +158,10 @@ def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tup
         os.kill(pid, signal.SIGCONT)
     else:
         os.kill(pid, signal.SIGKILL)
-    back = wait_restarted(run, service, pid)
+    back = wait_restarted(run, service)
     time.sleep(1.5)  # steady flow after
     still_teaching = teaching(run, "mirror")
-    gap, _ = record.gap_after(start)
+    gap = record.gap_after(start)
     recovery = gap if gap > GAP else 0.0
     after = pair_deficit(run, record)
     pairs_lost = max(0, after[0] - deficit[0]) + max(0, after[1] - deficit[1])
@@ -177,13 +177,14 @@ def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tup
 def children_gone(pids: list[int], timeout: float = 10.0) -> bool:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        if not any(Path(f"/proc/{pid}").exists() and _alive(pid) for pid in pids):
+        if not any(_alive(pid) for pid in pids):
             return True
         time.sleep(0.2)
     return False
 
 
 def _alive(pid: int) -> bool:
+    """Whether the process runs (a zombie, dead but not yet reaped, does not)."""
     try:
         state = Path(f"/proc/{pid}/stat").read_text().split(") ")[-1].split()[0]
     except OSError:
@@ -219,10 +220,6 @@ def run_faults(run_dir: Path, endpoint: str, learner: str = "lwpr", killed=KILLE
         log(f"kill supervisor: every service gone: {orphans_gone}")
     finally:
         record.close()
-        if run.supervisor.poll() is None:
-            run.close()
-        else:
-            run.session.close()
-            run._log.close()
+        run.close()
     return {"results": results, "published": published, "learner_pairs": held, "learner_pairs_lost": lost,
             "pairs_missing": final[0], "orphans_gone": orphans_gone}

@@ -9,8 +9,8 @@ defaults), stores them under the same names, and implements `_reset`, `_learn_on
 from __future__ import annotations
 
 import inspect
-import math
 import io
+import math
 import pickle
 from typing import NamedTuple
 

@@ -49,12 +49,17 @@ class Profile:
     def identity(self, spec: ServiceSpec) -> str:
         """The certificate a service of this profile shows: <role>.<service name>."""
         from services.security import BOX_ROLES
-        name = spec.name.split("-s")[0] if spec.box == "learner" else spec.name  # a swap's learner-sN is learner
+        name = swapped_from(spec.name) if spec.box == "learner" else spec.name
         return f"{BOX_ROLES[spec.box]}.{name}"
 
     def identities(self) -> list[str]:
         """Every certificate the profile needs: the router's, the supervisor's, each service's."""
         return ["router.router", f"supervisor.{self.name}"] + [self.identity(s) for s in self.services]
+
+
+def swapped_from(name: str) -> str:
+    """The profile's learner service a hot-swapped one (named <service>-s<N>) stands in for."""
+    return name.split("-s")[0]
 
 
 def _get(table: dict, key: str, kind, where: str, default=None, choices=None):

@@ -18,7 +18,6 @@ import zenoh
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, decode, encode, supervisor_key
 from services.bus import Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
 from services.realtime import hold_low_latency
-from services.security import BOX_ROLES
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 
@@ -60,8 +59,7 @@ class Supervisor:
         return replace(spec, env=env)
 
     def add(self, spec: ServiceSpec, command: list[str] | None = None) -> ManagedProcess:
-        if spec.box in BOX_ROLES:
-            spec = self.secured(spec, self.profile.identity(spec))
+        spec = self.secured(spec, self.profile.identity(spec))
         proc = ManagedProcess(spec, command or self.command_for(spec), self.profile.log_dir, self.echo)
         proc.ready_key = InstanceKeys(spec.instance).alive(spec.role, spec.name)
         self.procs[spec.name] = proc
@@ -114,7 +112,8 @@ class Supervisor:
         elif tag == "status":
             try:
                 msg = decode(Status, raw, key)
-                self.status[f"{msg.role}/{msg.name}"] = {"counters": msg.counters, "state": msg.state}
+                self.status[f"{msg.role}/{msg.name}"] = {"counters": msg.counters, "state": msg.state,
+                                                         "rates": numeric_rates(msg.state.get("rates"))}
             except ValueError:
                 pass
         else:
@@ -154,9 +153,7 @@ class Supervisor:
         for proc in self.procs.values():
             row = proc.describe()
             status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
-            rates = status.get("state", {}).get("rates", {})  # from the bus: a forged one is left out
-            row["rates"] = {k: v for k, v in rates.items() if isinstance(k, str) and type(v) in (int, float)
-                            and math.isfinite(v) and v} if isinstance(rates, dict) else {}
+            row["rates"] = status.get("rates", {})
             rows.append(row)
         return rows
 
@@ -220,6 +217,14 @@ class Supervisor:
         self.procs["router"].stop()
         log.info("stopped; no process left")
         return 0
+
+
+def numeric_rates(rates) -> dict:
+    """A status's nonzero rates, from the bus: a forged or malformed entry is left out."""
+    if not isinstance(rates, dict):
+        return {}
+    return {k: v for k, v in rates.items() if isinstance(k, str) and type(v) in (int, float) and math.isfinite(v)
+            and v}
 
 
 def select_learner(session, instance: str, learner: str) -> None:

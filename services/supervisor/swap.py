@@ -10,7 +10,7 @@ import dataclasses
 import time
 
 from bus_schema import ControlReply
-from services.supervisor.profile import ServiceSpec
+from services.supervisor.profile import ServiceSpec, swapped_from
 
 
 def parse_learner_spec(text: str) -> tuple[str, list[str]]:
@@ -70,7 +70,7 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     except ValueError as err:
         return ControlReply(False, str(err), {})
     sup.swap_count += 1
-    base = old.spec.name.split("-s")[0]
+    base = swapped_from(old.spec.name)
     new_name = f"{base}-s{sup.swap_count}"
     args = ("--learner", learner, *params, "--warm-from", old.spec.name, *_kept_args(old.spec.args))
     spec = dataclasses.replace(old.spec, name=new_name, args=args)
