@@ -1,14 +1,17 @@
 """A snapshot comes over the bus during a hot-swap: whatever a stranger answers there must never run
 (issue 12). Only numpy arrays and the learners' own state are built from it; anything else is
-refused before any of it runs, and the swapping learner learns the old one's history instead."""
+refused before any of it runs, and the swapping learner learns the old one's history instead.
+Snapshots are data (services.learners.snapshot_codec): a pickle is not one, whatever it names."""
 import pickle
 
+import msgpack
 import numpy as np
 import pytest
 
 from bus_schema import PairBatch, Snapshot
 from services.learners import LEARNERS, make_learner
 from services.learners.base import SnapshotError
+from services.learners.snapshot_codec import encode_value
 
 
 class Planted:
@@ -33,6 +36,55 @@ def test_restore_refuses_a_pickle_that_names_anything_but_learner_state(tmp_path
         with pytest.raises(SnapshotError):
             LEARNERS[name].restore(blob)
     assert not marker.exists()
+
+
+def packed(state, name="KNN"):
+    """A snapshot in the data format, its learner's state as given."""
+    obj = msgpack.ExtType(2, msgpack.packb([name, state], use_bin_type=True, default=encode_value))
+    return msgpack.packb({"format": "dogged-learner-snapshot", "version": 1, "state": obj}, use_bin_type=True)
+
+
+def array(dtype, shape, raw):
+    return msgpack.ExtType(1, msgpack.packb([dtype, shape, raw], use_bin_type=True))
+
+
+def knn_state(**changes):
+    model = make_learner("knn", 2, 1)
+    model.learn_many(np.eye(2), np.ones((2, 1)))
+    state = model.__getstate__()
+    state = {k: v for k, v in state.items() if not hasattr(v, "__dict__")}  # its plain values
+    state.update(changes)
+    return state
+
+
+@pytest.mark.parametrize("blob, reason", [
+    (packed({}, name="Popen"), "not 'Popen'"),
+    (packed({"n_in": 2, "n_out": 1, "x": array("|O", [1], b"\x00" * 8)}), "dtype"),
+    (packed({"n_in": 2, "n_out": 1, "x": array("<f8", [3], b"\x00" * 8)}), "does not match"),
+    (packed({"n_in": 2, "n_out": 1, "x": array("<f8", [-1], b"")}), "shape"),
+    (packed(knn_state(n_in=10 ** 9)), "n_in must be an integer"),
+    (packed(knn_state(n_out=True)), "n_out must be an integer"),
+    (packed(knn_state(_xs=np.zeros(0).tobytes())), "does not answer"),
+    (msgpack.packb({"format": "dogged-learner-snapshot", "version": 2, "state": None}), "version 2"),
+    (msgpack.packb({"format": "dogged-learner-snapshot", "version": 1, "state": msgpack.ExtType(9, b"")}), "extension"),
+    (msgpack.packb([1, 2, 3]), "no 'dogged-learner-snapshot' header"),
+])
+def test_restore_refuses_well_formed_data_that_is_not_a_sane_learner(blob, reason):
+    with pytest.raises(SnapshotError, match=reason):
+        LEARNERS["knn"].restore(blob)
+
+
+@pytest.mark.parametrize("name", sorted(LEARNERS))
+def test_a_snapshot_is_data_that_restores_the_same_answers(name):
+    kw = {"base": "gp"} if name == "per-output" else {}
+    model = make_learner(name, 3, 2, **kw)
+    xs = np.random.default_rng(1).uniform(-1, 1, (50, 3))
+    model.learn_many(xs, np.sin(xs[:, :2]))
+    blob = model.snapshot()
+    with pytest.raises(Exception):
+        pickle.loads(blob)  # not a pickle at all
+    copy = LEARNERS[name].restore(blob)
+    np.testing.assert_array_equal(copy.predict_many(xs).y, model.predict_many(xs).y)
 
 
 def test_restore_refuses_another_learners_snapshot():

@@ -9,14 +9,14 @@ defaults), stores them under the same names, and implements `_reset`, `_learn_on
 from __future__ import annotations
 
 import inspect
-import io
 import math
-import pickle
 from typing import NamedTuple
 
 import numpy as np
 
+from . import snapshot_codec
 from .errors import LearnerInputError
+from .snapshot_codec import SnapshotError  # noqa: F401 - where callers have imported it from
 
 
 class Prediction(NamedTuple):
@@ -103,6 +103,10 @@ class TaughtRange:
 
 class Learner:
     """Base of every learner; see the module docstring for what a subclass provides."""
+
+    # classes of the learner's own state that its snapshot may hold (besides arrays, plain values and the
+    # common ones: services.learners.snapshot_codec)
+    state_classes: tuple[type, ...] = ()
 
     def __init__(self, n_in: int, n_out: int, seed: int = 0):
         if int(n_in) < 1 or int(n_out) < 1:
@@ -209,20 +213,22 @@ class Learner:
         return type(self)(self.n_in, self.n_out, seed=self.seed, **self.get_params())
 
     def snapshot(self) -> bytes:
-        return pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL)
+        """The learner as data only (services.learners.snapshot_codec): arrays, numbers, known classes."""
+        return snapshot_codec.dump(self)
 
     @classmethod
     def restore(cls, blob: bytes) -> "Learner":
-        """A learner from `snapshot()` bytes, which may come from the bus: only numpy arrays and the
-        learners' own state classes are built (SnapshotReader); anything else is refused unrun."""
+        """A learner from `snapshot()` bytes, which may come from the bus: only arrays, plain values and
+        the learners' registered state classes are built, then the learner must answer a probe with
+        finite numbers; anything else is a SnapshotError (the swapping learner learns the history)."""
+        model = snapshot_codec.load(blob, cls)
         try:
-            model = SnapshotReader(io.BytesIO(blob)).load()
-        except SnapshotError:
-            raise
-        except Exception as err:  # noqa: BLE001 - any malformed byte string is a refused snapshot
-            raise SnapshotError(f"not a learner snapshot: {type(err).__name__}: {err}") from None
-        if not isinstance(model, cls):
-            raise SnapshotError(f"snapshot holds a {type(model).__name__}, not a {cls.__name__}")
+            probe = model.predict_many(np.zeros((2, model.n_in)))
+            sane = np.isfinite(probe.y).all() and np.isfinite(probe.confidence).all()
+        except Exception as err:  # noqa: BLE001 - state that does not fit together is a refused snapshot
+            raise SnapshotError(f"the snapshot's {type(model).__name__} does not answer: {type(err).__name__}: {err}") from None
+        if not sane:
+            raise SnapshotError(f"the snapshot's {type(model).__name__} answers with non-finite numbers")
         return model
 
     def __setstate__(self, state: dict) -> None:
@@ -236,29 +242,6 @@ class Learner:
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}(n_in={self.n_in}, n_out={self.n_out}, seed={self.seed}, {params})"
-
-
-class SnapshotError(ValueError):
-    """Bytes that are not a learner snapshot this version may load."""
-
-
-# what a snapshot may name: numpy's array and dtype builders, the registered learners and the state
-# classes they keep (a learner with a state class of its own adds it here); a pickle that names
-# anything else (os.system, builtins.eval, ...) is refused before anything of it runs
-NUMPY_GLOBALS = frozenset((module, name) for module in ("numpy", "numpy.core.multiarray", "numpy._core.multiarray",
-                                                         "numpy.core.numeric", "numpy._core.numeric")
-                          for name in ("dtype", "ndarray", "_reconstruct", "_frombuffer", "scalar"))
-STATE_CLASSES = {("services.learners.base", "TaughtRange"), ("services.learners.gp_evidence", "Hyper"),
-                 ("services.learners.novelty", "InputEnvelope")}
-
-
-class SnapshotReader(pickle.Unpickler):
-    def find_class(self, module: str, name: str):
-        from . import LEARNERS
-        learners = {(c.__module__, c.__name__) for c in LEARNERS.values()}
-        if (module, name) in NUMPY_GLOBALS or (module, name) in STATE_CLASSES or (module, name) in learners:
-            return super().find_class(module, name)
-        raise SnapshotError(f"a snapshot holds arrays and learner state only, not {module}.{name}")
 
 
 def check_positive(name: str, value, strictly: bool = True) -> float:
