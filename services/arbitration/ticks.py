@@ -12,6 +12,10 @@ import numpy as np
 
 from bus_schema import Proposal
 
+# an input may run this many ticks past the last one (an hour at 30 Hz of inputs lost); further is not
+# trusted until CONFIRMING more inputs have followed on from it (a link that was down that long)
+MAX_TICK_JUMP, CONFIRMING = 100_000, 3
+
 
 @dataclass
 class PendingTick:
@@ -29,6 +33,8 @@ class TickTable:
         self._decided: OrderedDict[int, None] = OrderedDict()
         self._remember = remember
         self.late = 0
+        self._last_input: int | None = None
+        self._jumped: list[int] = []  # inputs far past the last, each following on from the one before
 
     def _entry(self, tick: int, now: float) -> PendingTick | None:
         if tick in self._decided:
@@ -39,10 +45,27 @@ class TickTable:
         return entry
 
     def add_input(self, tick: int, stamp: float, x: np.ndarray, now: float) -> None:
+        """Raises ValueError, the input unused, for a tick implausibly far past the last input's."""
+        self._check_jump(tick)
         if tick in self._decided:  # the platform restarted its tick count: forget the old run
             self._decided.clear()
         entry = self._entry(tick, now)
         entry.x, entry.stamp = x, stamp
+
+    def _check_jump(self, tick: int) -> None:
+        last = self._last_input
+        if last is None or tick <= last + MAX_TICK_JUMP:  # on, or back (the platform restarted)
+            self._last_input, self._jumped = tick, []
+            return
+        if self._jumped and self._jumped[-1] < tick <= self._jumped[-1] + MAX_TICK_JUMP:
+            self._jumped.append(tick)
+        else:
+            self._jumped = [tick]
+        if len(self._jumped) > CONFIRMING:  # a stream that goes on from there: the platform's own
+            self._last_input, self._jumped = tick, []
+            return
+        raise ValueError(f"input tick {tick} jumps {tick - last} past the last input's ({last}); "
+                         f"taken once {CONFIRMING} more follow on from it")
 
     def add_proposal(self, member: str, proposal: Proposal, now: float) -> None:
         entry = self._entry(proposal.tick, now)

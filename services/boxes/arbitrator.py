@@ -66,9 +66,14 @@ class Arbitrator:
     # --- handlers ---------------------------------------------------------------------------
     def on_input(self, key, raw, now):
         msg = decode_or_reject(lambda: decode(Input, raw, key, {"x": self.dims["x"]}), self.rejects, key)
-        if msg is not None:
-            self.counts["inputs"] += 1
+        if msg is None:
+            return
+        try:
             self.table.add_input(msg.tick, msg.stamp, msg.x, now)
+        except ValueError as err:
+            self.rejects(key, err)
+            return
+        self.counts["inputs"] += 1
 
     def on_proposal(self, key, raw, now):
         parts = key.split("/")

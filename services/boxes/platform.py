@@ -71,6 +71,12 @@ class PlatformLoop:
         msg = decode_or_reject(lambda: decode(Command, raw, key, {"y": self.dims}), self.rejects, key)
         if msg is None:
             return
+        if not 1 <= msg.tick <= self.tick:
+            # an answer to an input never published: trusted, it would outrank every real command and
+            # the watchdog would hold the robot still until a restart
+            self.rejects(key, ValueError(f"a command for tick {msg.tick}, which this platform has not published "
+                                         f"(its last tick is {self.tick})"))
+            return
         self.counts["commands"] += 1
         if self.tick - ANSWER_WINDOW < msg.tick <= self.tick:
             self.answered.add(msg.tick)
