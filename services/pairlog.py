@@ -1,7 +1,9 @@
 """Every training pair a learner has incorporated, in memory and optionally in an append-only file.
 
 The file is a stream of msgpack TrainingPair payloads; a crash can cut the last record short, so
-replay stops at the first record that does not decode whole and truncates the file there.
+replay stops where the last record is incomplete and truncates the file there. A whole record that is
+not a pair this learner can learn (other dimensions: the spaces changed, or were answered by someone
+else) is a PairLogError, and the file is left as it is: nothing a learner was taught is thrown away.
 """
 from __future__ import annotations
 
@@ -12,6 +14,10 @@ import msgpack
 import numpy as np
 
 from bus_schema import SchemaError, TrainingPair, decode, encode
+
+
+class PairLogError(RuntimeError):
+    """A pair log this learner cannot replay; the file is untouched."""
 
 
 class PairLog:
@@ -63,16 +69,25 @@ class PairLog:
             unpacker = msgpack.Unpacker(raw=False)
             unpacker.feed(self.path.read_bytes())
             try:
-                for item in unpacker:
-                    raw = msgpack.packb(item, use_bin_type=True)
-                    pairs.append(decode(TrainingPair, raw, str(self.path), {"x": self.n_in, "y": self.n_out}))
+                for item in unpacker:  # stops, without a record, where the last one is cut short
+                    pairs.append(self._pair(item, len(pairs) + 1))
                     good_bytes = unpacker.tell()
-            except (ValueError, SchemaError, msgpack.ExtraData):
-                pass
+            except (ValueError, msgpack.UnpackException) as err:  # bytes that are no msgpack at all
+                raise PairLogError(f"{self.path}: not a pair log after record {len(pairs)} ({err}); "
+                                   "the file is kept as it is: move it away to start afresh") from None
             if good_bytes < self.path.stat().st_size:
                 os.truncate(self.path, good_bytes)  # drop the torn tail, keep every whole pair
         self._file = open(self.path, "ab")
         return pairs
+
+    def _pair(self, item, number: int) -> TrainingPair:
+        try:
+            return decode(TrainingPair, msgpack.packb(item, use_bin_type=True), str(self.path),
+                          {"x": self.n_in, "y": self.n_out})
+        except (ValueError, SchemaError) as err:
+            raise PairLogError(f"{self.path}: record {number} is not a {self.n_in} -> {self.n_out} training pair "
+                               f"({err}); the file is kept as it is: start the learner with the spaces it was "
+                               "written with, or move the file away to start afresh") from None
 
     def close(self) -> None:
         if self._file is not None:

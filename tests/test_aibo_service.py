@@ -31,7 +31,7 @@ def test_aibo_service_on_the_bus(router, tmp_path):
 
         pub = probe.session.declare_publisher("dl/main/command")
         for mode in ("teacher", "student", "unsure"):
-            tick = probe.counter("aibo/aibo", "tick") + 100
+            tick = probe.counter("aibo/aibo", "tick")  # one it has published (a later one is refused)
             for _ in range(10):
                 pub.put(encode(Command(tick, time.time(), np.zeros(18), mode, "test/x", 1.0)))
                 time.sleep(0.02)
@@ -47,7 +47,8 @@ def test_aibo_service_on_the_bus(router, tmp_path):
             handle.put(encode(Handle(mask, q)))
             time.sleep(0.02)
         probe.wait_for(lambda: probe.counter("aibo/aibo", "handled") > 0, 10, "the handle taken")
-        tick = probe.counter("aibo/aibo", "tick") + 100
+        used = tick  # a command for a newer tick than the last one applied, or nothing new is applied
+        tick = probe.wait_for(lambda: (t := probe.counter("aibo/aibo", "tick")) > used and t, 10, "a newer tick")
         for _ in range(10):
             pub.put(encode(Command(tick, time.time(), np.zeros(18), "student", "test/x", 1.0)))
             time.sleep(0.02)

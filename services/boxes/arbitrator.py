@@ -3,7 +3,8 @@
 Per tick it gathers the teaching teachers', the active learner's and any default controller's
 proposals up to a deadline, picks the output with a strategy, publishes the command (with the
 mode) and, when a teacher spoke, the training pair. Membership comes from liveliness tokens, so
-it never waits for a process that is gone.
+it never waits for a process that is gone; a member alive but silent (frozen, or a token with nobody
+behind it) stops being waited for after MISSES_BEFORE_IGNORED deadlines in a row, until it answers.
 """
 from __future__ import annotations
 
@@ -24,6 +25,9 @@ from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_arg
                           lossless_publisher, sensor_publisher, setup_logging)
 
 
+MISSES_BEFORE_IGNORED = 5
+
+
 class Arbitrator:
     """The service's state and handlers; `run` owns the session."""
 
@@ -37,6 +41,7 @@ class Arbitrator:
         self.selected = learner
         self.epoch, self.seq = uuid.uuid4().hex[:12], 0
         self.recent: collections.deque[TrainingPair] = collections.deque(maxlen=recent)
+        self.missed: collections.Counter[str] = collections.Counter()  # deadlines missed in a row, per member
         self.last_command = np.zeros(spaces.output.dims)
         self.rejects = Rejects(log)
         self.counts = collections.Counter()
@@ -61,7 +66,17 @@ class Arbitrator:
         learner = self.active_learner()
         if learner is not None:
             out.add(f"learner/{learner}")
-        return out
+        return {member for member in out if self.missed[member] < MISSES_BEFORE_IGNORED}
+
+    def on_alive(self, key, kind):
+        parsed = self.members.update(key, kind)
+        if parsed is not None:  # a member that came or went starts afresh
+            role, name = parsed
+            self.missed.pop(f"{'teacher' if role == 'teaching' else role}/{name}", None)
+
+    def silent(self) -> list[str]:
+        """Members alive but not waited for: they missed MISSES_BEFORE_IGNORED deadlines in a row."""
+        return sorted(member for member, n in self.missed.items() if n >= MISSES_BEFORE_IGNORED)
 
     # --- handlers ---------------------------------------------------------------------------
     def on_input(self, key, raw, now):
@@ -83,7 +98,9 @@ class Arbitrator:
         msg = decode_or_reject(lambda: decode(Proposal, raw, key, {"y": self.dims["y"]}), self.rejects, key)
         if msg is not None:
             self.counts["proposals"] += 1
-            self.table.add_proposal(f"{parts[3]}/{parts[4]}", msg, now)
+            member = f"{parts[3]}/{parts[4]}"
+            self.missed.pop(member, None)  # it answers: waited for again
+            self.table.add_proposal(member, msg, now)
 
     def on_select(self, key, raw, now):
         msg = decode_or_reject(lambda: decode(SelectLearner, raw, key), self.rejects, key)
@@ -113,6 +130,12 @@ class Arbitrator:
         for entry in self.table.ready(expected, now):
             if not expected.issubset(entry.proposals):
                 self.counts["deadline_misses"] += 1
+                for member in expected - entry.proposals.keys():
+                    self.missed[member] += 1
+                    if self.missed[member] == MISSES_BEFORE_IGNORED:
+                        self.log.warning("%s missed %d deadlines in a row: not waited for until it answers", member,
+                                         MISSES_BEFORE_IGNORED)
+                        self.counts["members_silenced"] += 1
             teachers = [(m, p) for m, p in entry.proposals.items() if m.startswith("teacher/") and p.y is not None]
             mine = f"learner/{learner}"
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
@@ -138,7 +161,8 @@ class Arbitrator:
     def status(self) -> tuple[dict, dict]:
         counters = dict(self.counts, rejected=self.rejects.total, late_proposals=self.table.late)
         state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq, "pending": len(self.table),
-                 "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts)}
+                 "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts),
+                 "not_waited_for": self.silent()}
         return counters, state
 
 
@@ -175,7 +199,7 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
                 tag, key, raw, kind = item
                 now = time.monotonic()
                 if tag == "alive":
-                    arb.members.update(key, kind)
+                    arb.on_alive(key, kind)
                 elif tag == "recent":
                     arb.on_recent_query(raw)
                 else:

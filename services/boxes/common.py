@@ -11,16 +11,27 @@ from bus_schema import InstanceKeys, SchemaError, Spaces, SpacesMessage, decode
 
 def fetch_spaces(session: zenoh.Session, keys: InstanceKeys, stop, log: logging.Logger,
                  timeout: float | None = None) -> Spaces | None:
-    """Ask the platform for its spaces until it answers (dims come from the platform, not from flags)."""
+    """Ask the platform for its spaces until it answers (dims come from the platform, not from flags).
+    Every answer to one query must agree: spaces that a second answerer contradicts are not trusted
+    (without access control anyone may answer; with it only the platform can), and the query is
+    asked again."""
     start, warned = time.monotonic(), False
     while not stop:
-        for reply in session.get(keys.spaces, timeout=1.0):
+        answers = []
+        # every answer, not one per key: two answerers must both be heard to be compared
+        for reply in session.get(keys.spaces, timeout=1.0, consolidation=zenoh.ConsolidationMode.NONE):
             if reply.ok is None:
                 continue
             try:
-                return Spaces.from_dict(decode(SpacesMessage, reply.ok.payload.to_bytes(), keys.spaces).spaces)
+                answers.append(Spaces.from_dict(decode(SpacesMessage, reply.ok.payload.to_bytes(), keys.spaces).spaces))
             except (SchemaError, KeyError, TypeError, ValueError) as err:
                 log.error("platform spaces rejected: %s", err)
+        if answers and all(a.to_dict() == answers[0].to_dict() for a in answers[1:]):
+            return answers[0]
+        if answers:
+            shapes = sorted({f"{a.input.dims} -> {a.output.dims}" for a in answers})
+            log.error("%d answers on %s disagree (%s): trusting none, asking again", len(answers), keys.spaces,
+                      "; ".join(shapes) if len(shapes) > 1 else "same sizes, other bounds or names")
         if timeout is not None and time.monotonic() - start > timeout:
             return None
         if not warned and time.monotonic() - start > 3:

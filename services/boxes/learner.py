@@ -23,7 +23,7 @@ from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_arg
                           sensor_publisher, setup_logging)
 from services.learners import DEFAULT_LEARNER, LEARNERS, make_learner
 from services.learners.base import SnapshotError
-from services.pairlog import PairLog
+from services.pairlog import PairLog, PairLogError
 from services.params import parse_params
 
 
@@ -220,7 +220,11 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
         # subscribe before warming: pairs published meanwhile wait in the inbox, none is missed
         held = []  # declarations live as long as these references (a dropped token is undeclared)
         held.append(session.declare_subscriber(keys.train, inbox.callback("train")))
-        saved = pairlog.replay_file()
+        try:
+            saved = pairlog.replay_file()
+        except PairLogError as err:
+            log.error("%s", err)
+            return 1
         if saved:
             node.replay(saved)
             log.info("replayed %d pairs from %s", len(saved), pairlog.path)

@@ -1,0 +1,42 @@
+"""A ghost `alive/teaching/<x>` token once made every tick wait for the 20 ms deadline (issue 12). A
+member that misses MISSES_BEFORE_IGNORED deadlines in a row is no longer waited for, until it answers."""
+import logging
+
+import numpy as np
+import zenoh
+
+from bus_schema import Input, Proposal, encode
+from services.arbitration.strategies import TeacherFirst
+from services.boxes.arbitrator import MISSES_BEFORE_IGNORED, Arbitrator
+from tests.test_boxes_clip import KEYS, SPACES, FakeSession
+
+DEADLINE = 0.02
+
+
+def tick(arb, t, n, answer_from=("learner/student",)):
+    """Input n at time t, proposals from `answer_from` 1 ms later; returns when tick n was decided."""
+    arb.on_input(KEYS.input, encode(Input(n, t, np.zeros(2))), t)
+    for member in answer_from:
+        role, name = member.split("/")
+        arb.on_proposal(f"{KEYS.prefix}/proposal/{role}/{name}", encode(Proposal(n, member, np.zeros(2), 0.9)), t + 0.001)
+    for wait in (0.001, DEADLINE):
+        before = arb.counts["commands"]
+        arb.decide_ready(t + wait)
+        if arb.counts["commands"] > before:
+            return wait
+    raise AssertionError(f"tick {n} not decided")
+
+
+def test_a_ghost_teacher_is_waited_for_a_few_ticks_then_not_until_it_answers():
+    arb = Arbitrator(FakeSession(), KEYS, SPACES, TeacherFirst(), DEADLINE, "student", "teacher", 16,
+                     logging.getLogger("test"))
+    for member in (KEYS.alive("learner", "student"), KEYS.alive("teaching", "ghost")):
+        arb.on_alive(member, zenoh.SampleKind.PUT)
+    waits = [tick(arb, float(n), n) for n in range(1, 21)]
+    assert waits[:MISSES_BEFORE_IGNORED] == [DEADLINE] * MISSES_BEFORE_IGNORED
+    assert max(waits[MISSES_BEFORE_IGNORED:]) < DEADLINE  # decided as soon as the learner answered
+    assert arb.status()[1]["not_waited_for"] == ["teacher/ghost"] and arb.counts["members_silenced"] == 1
+    # it answers (a frozen teacher thawed): waited for again, and its teaching is taken
+    assert tick(arb, 30.0, 30, ("learner/student", "teacher/ghost")) < DEADLINE
+    assert arb.status()[1]["not_waited_for"] == [] and arb.counts["train_pairs"] == 1
+    assert tick(arb, 31.0, 31) == DEADLINE  # silent again: waited for, a deadline at a time
