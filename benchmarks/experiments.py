@@ -4,7 +4,7 @@ and the orange ball, over several seeds, single process, simulated time as fast 
     .venv/bin/python benchmarks/experiments.py [--seeds 10] [--quick] [--out DIR]
 
 The system as wired: each experiment's learner is read from its deploy profile (per-output GP for
-mirroring, the GP with near=0.1 for ball seeking, on the colour-blind slot layout); --learner NAME
+mirroring, the GP with near=0.2 for ball seeking, on the colour-blind slot layout); --learner NAME
 runs every experiment with that learner instead. Baselines measured in the
 same run: the teacher's own success on the student's episodes, and two contrasts that show why
 the wiring is what it is (whole-vector training for two teachers; the per-colour layout for the
