@@ -51,6 +51,25 @@ def test_a_long_jump_the_arbitrator_confirms_is_taken():
     assert n.seq == 100_000 and n.rejects.total == 0 and n.counts["pairs_lost"] == 100_000 - 2
 
 
+def test_a_pair_in_an_epoch_the_arbitrator_does_not_have_is_rejected():
+    n = node()
+    for seq in (1, 2):
+        n.on_pair(pair(seq))
+    n._last_confirm = -math.inf
+    n.on_pair(pair(1, epoch="stranger"))  # learned, it would reset the seqs and teach a stranger's pair
+    assert n.epoch == "e1" and n.seq == 2 and n.rejects.total == 1 and n.counts["learned"] == 2
+    n.on_pair(pair(3))
+    assert n.seq == 3 and n.counts["learned"] == 3
+
+
+def test_a_new_epoch_the_arbitrator_confirms_begins():
+    restarted = pair(1, epoch="e2")
+    n = node(recent={1: restarted})
+    n.on_pair(pair(1))
+    n.on_pair(restarted)
+    assert n.epoch == "e2" and n.seq == 1 and n.rejects.total == 0 and n.counts["learned"] == 2
+
+
 class Query:
     def __init__(self, key, parameters):
         self.key_expr, self.parameters, self.errors, self.replies = key, zenoh.Parameters(parameters), [], []

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import zenoh
 
-from bus_schema import InstanceKeys, SpacesMessage, TrainingPair, encode
+from bus_schema import InstanceKeys, PairBatch, SpacesMessage, TrainingPair, encode
 from bus_schema.spaces import Box, Spaces
 from services.boxes.common import fetch_spaces
 from services.bus import zenoh_config
@@ -74,5 +74,40 @@ def test_spaces_that_two_answerers_disagree_on_are_not_trusted(router, caplog):
         time.sleep(0.5)
         got = fetch_spaces(session, keys, False, log, timeout=5.0)
         assert got is not None and got.input.dims == 18
+    stops[0].set()
+    threads[0].join(5)
+
+
+def answer(endpoint, key, payload: bytes, stop: threading.Event):
+    with zenoh.open(zenoh_config(connect=[endpoint], mode="client")) as session:
+        session.declare_queryable(key, lambda query: query.reply(key, payload))
+        stop.wait()
+
+
+def test_a_learner_trusts_no_answer_that_a_second_answerer_contradicts(router):
+    """A stranger answering the arbitrator's recent pairs could confirm a hostile seq jump; answering a
+    snapshot or a history, it could hand a swapping learner a poisoned model (issue 12)."""
+    from services.boxes.learner import LearnerNode
+    from tests.test_learner_box_hostile import node
+
+    keys = InstanceKeys("main")
+    batch = PairBatch("e1", 5, np.zeros((1, 2)), np.zeros((1, 1)), np.ones((1, 1)))
+    forged = PairBatch("e1", 5, np.ones((1, 2)), np.ones((1, 1)), np.ones((1, 1)))
+    stops = [threading.Event(), threading.Event()]
+    threads = [threading.Thread(target=answer, args=(router, keys.train_recent, encode(b), stop), daemon=True)
+               for b, stop in zip((batch, forged), stops)]
+    for t in threads:
+        t.start()
+    with zenoh.open(zenoh_config(connect=[router], mode="client")) as session:
+        n = node()
+        n.session, n.query = session, LearnerNode.query.__get__(n)
+        time.sleep(1.0)
+        assert n.query(keys.train_recent, PairBatch, "from=5;to=5", timeout=2.0) is None
+        assert n.rejects.total == 1
+        stops[1].set()
+        threads[1].join(5)
+        time.sleep(0.5)
+        got = n.query(keys.train_recent, PairBatch, "from=5;to=5", timeout=2.0)
+        assert got is not None and got.x.tolist() == [[0.0, 0.0]] and n.rejects.total == 1
     stops[0].set()
     threads[0].join(5)

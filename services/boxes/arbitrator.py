@@ -115,6 +115,8 @@ class Arbitrator:
         try:
             first, last = int(params.get("from", "1")), int(params.get("to", str(self.seq)))
         except ValueError:
+            self.rejects(self.keys.train_recent, ValueError(f"recent query parameters {str(params)[:80]!r}: "
+                                                            "from and to must be integers"))
             query.reply_err(b"from and to must be integers")
             return
         rows = [p for p in self.recent if first <= p.seq <= last]

@@ -18,8 +18,9 @@ def fetch_spaces(session: zenoh.Session, keys: InstanceKeys, stop, log: logging.
     start, warned = time.monotonic(), False
     while not stop:
         answers = []
-        # every answer, not one per key: two answerers must both be heard to be compared
-        for reply in session.get(keys.spaces, timeout=1.0, consolidation=zenoh.ConsolidationMode.NONE):
+        # every queryable, every answer: two answerers must both be heard to be compared
+        for reply in session.get(keys.spaces, timeout=1.0, target=zenoh.QueryTarget.ALL,
+                                 consolidation=zenoh.ConsolidationMode.NONE):
             if reply.ok is None:
                 continue
             try:

@@ -19,8 +19,8 @@ import zenoh
 from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, Snapshot, TrainingPair, decode,
                         encode)
 from services.boxes.common import fetch_spaces
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          sensor_publisher, setup_logging)
+from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, ask_owner, config_from_args,
+                          decode_or_reject, sensor_publisher, setup_logging)
 from services.learners import DEFAULT_LEARNER, LEARNERS, make_learner
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
@@ -55,6 +55,12 @@ class LearnerNode:
 
     def on_pair(self, pair: TrainingPair):
         if pair.epoch != self.epoch:
+            # a new arbitrator run; once an epoch is known, a new one must be the arbitrator's: a stranger's
+            # pair in an epoch of its own would otherwise be learned, and the real epoch's seqs reset
+            if self.epoch and not self.confirmed(pair):
+                self.rejects(self.keys.train, ValueError(f"training pair of epoch {pair.epoch[:32]!r} (seq {pair.seq}), "
+                                                         f"not {self.epoch}, and the arbitrator does not confirm it"))
+                return
             self.log.info("training epoch %s begins (arbitrator started)", pair.epoch)
             self.epoch, self.seq = pair.epoch, 0
         if pair.seq <= self.seq:
@@ -94,14 +100,18 @@ class LearnerNode:
         self.counts["gap_filled"] += len(batch.x)
 
     def query(self, key, cls, parameters="", timeout=5.0):
-        selector = f"{key}?{parameters}" if parameters else key
-        for reply in self.session.get(selector, timeout=timeout):
-            if reply.ok is not None:
-                try:
-                    return decode(cls, reply.ok.payload.to_bytes(), key, self.dims)
-                except SchemaError as err:
-                    self.rejects(key, err)
-        return None
+        """The owner's answer (the arbitrator's recent pairs, the old learner's snapshot or history): if
+        another answers too, with something else, none is trusted (counted as a rejection)."""
+        payload, problem = ask_owner(self.session, f"{key}?{parameters}" if parameters else key, timeout)
+        if payload is None:
+            if "different answers" in problem:
+                self.rejects(key, ValueError(problem))
+            return None
+        try:
+            return decode(cls, payload, key, self.dims)
+        except SchemaError as err:
+            self.rejects(key, err)
+            return None
 
     # --- warming ----------------------------------------------------------------------------
     def replay(self, pairs: list[TrainingPair]):

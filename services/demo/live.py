@@ -31,12 +31,13 @@ class LiveRun:
                                            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
         self.session = zenoh.open(zenoh_config(connect=[endpoint], mode="client"))
         self.recorded: dict[str, list] = {}
-        self._held = [self._record(k) for k in (self.keys.input, self.keys.command, self.robot.state,
+        self._held = [self.record(k) for k in (self.keys.input, self.keys.command, self.robot.state,
                                                   f"{self.keys.prefix}/proposal/learner/*")]
         self._teach = lossless_publisher(self.session, self.keys.teach)
         self._arena = lossless_publisher(self.session, self.robot.arena)
 
-    def _record(self, key: str):
+    def record(self, key: str):
+        """Keep every payload on `key` in self.recorded[key] (as (key, bytes)) while the subscriber lives."""
         bucket = self.recorded.setdefault(key, [])
         return self.session.declare_subscriber(key, lambda s: bucket.append((str(s.key_expr), s.payload.to_bytes())))
 
@@ -78,8 +79,11 @@ class LiveRun:
         return decode(Command, commands[-1][1], self.keys.command).mode if commands else ""
 
     def tick(self) -> int:
-        inputs = self.recorded[self.keys.input]
-        return decode(Input, inputs[-1][1], self.keys.input).tick if inputs else 0
+        for key, raw in reversed(self.recorded[self.keys.input]):
+            msg = _decoded(Input, key, raw)
+            if msg is not None:
+                return msg.tick
+        return 0
 
     def run_ticks(self, count: int, timeout: float = 600.0) -> None:
         target, end = self.tick() + count, time.monotonic() + timeout
@@ -89,17 +93,22 @@ class LiveRun:
             time.sleep(0.01)
 
     # --- reading the record -----------------------------------------------------------------
+    # (what does not decode is no message: a stranger may have put anything on these keys)
     def inputs(self) -> list[Input]:
-        return [decode(Input, raw, key) for key, raw in self.recorded[self.keys.input]]
+        return self.messages(Input, self.keys.input)
 
     def commands(self) -> list[Command]:
-        return [decode(Command, raw, key) for key, raw in self.recorded[self.keys.command]]
+        return self.messages(Command, self.keys.command)
 
     def learner_proposals(self) -> list[Proposal]:
-        return [decode(Proposal, raw, key) for key, raw in self.recorded[f"{self.keys.prefix}/proposal/learner/*"]]
+        return self.messages(Proposal, f"{self.keys.prefix}/proposal/learner/*")
 
     def states(self, since: int = 0) -> list[RobotState]:
-        return [decode(RobotState, raw, key) for key, raw in self.recorded[self.robot.state][since:]]
+        return self.messages(RobotState, self.robot.state, since)
+
+    def messages(self, cls, key: str, since: int = 0) -> list:
+        """The recorded payloads on `key`, from index `since`, that decode as `cls`."""
+        return [m for m in (_decoded(cls, k, raw) for k, raw in self.recorded[key][since:]) if m is not None]
 
     def close(self) -> int:
         for held in self._held:
@@ -112,3 +121,10 @@ class LiveRun:
             return self.supervisor.wait(60)
         finally:
             self._log.close()
+
+
+def _decoded(cls, key: str, raw: bytes):
+    try:
+        return decode(cls, raw, key)
+    except ValueError:  # SchemaError is one
+        return None

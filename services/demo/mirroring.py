@@ -67,11 +67,12 @@ def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, se
     return run
 
 
-def student_error(run: LiveRun, since_tick: int, axes=("pan", "tilt"), teacher=None) -> tuple[float, int]:
-    """RMS (rad) over the head axes of (teacher's answer - the command) for student ticks since
-    `since_tick`; the teacher is the full mirroring one unless given."""
+def student_error(run: LiveRun, since_tick: int, axes=("pan", "tilt"), teacher=None,
+                  until_tick: int | None = None) -> tuple[float, int]:
+    """RMS (rad) over the head axes of (teacher's answer - the command) for student ticks from
+    `since_tick` (to `until_tick`); the teacher is the full mirroring one unless given."""
     teacher = teacher or MirrorTeacher(Spaces(JOINTS_BOX, JOINTS_BOX))
-    inputs = {m.tick: m.x for m in run.inputs() if m.tick >= since_tick}
+    inputs = {m.tick: m.x for m in run.inputs() if since_tick <= m.tick <= (until_tick or m.tick)}
     outputs = [{"tilt": HEAD_TILT, "pan": HEAD_PAN}[a] for a in axes]
     errors = [teacher(inputs[c.tick])[0][outputs] - c.y[outputs]
               for c in run.commands() if c.tick in inputs and c.mode != "teacher"]

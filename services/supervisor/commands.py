@@ -14,7 +14,7 @@ import zenoh
 
 from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError,
                         TeachSwitch, decode, encode, supervisor_key)
-from services.bus import lossless_publisher, wait_matching, zenoh_config
+from services.bus import ask_owner, lossless_publisher, wait_matching, zenoh_config
 from services.supervisor.profile import ProfileError, load_profile
 
 
@@ -82,14 +82,15 @@ def _ask(args, verb: str, parameters: str = "", timeout: float = 5.0) -> Control
         if profile is None:
             return None
         key = supervisor_key(profile, verb)
-        for reply in session.get(f"{key}?{parameters}" if parameters else key, timeout=timeout):
-            if reply.ok is not None:
-                try:
-                    return decode(ControlReply, reply.ok.payload.to_bytes(), key)
-                except SchemaError as err:
-                    print(f"bad reply: {err}", file=sys.stderr)
-        print(f"the supervisor of {profile} did not answer {verb}", file=sys.stderr)
-        return None
+        payload, problem = ask_owner(session, f"{key}?{parameters}" if parameters else key, timeout)
+        if payload is None:
+            print(f"the supervisor of {profile} did not answer {verb}: {problem}", file=sys.stderr)
+            return None
+        try:
+            return decode(ControlReply, payload, key)
+        except SchemaError as err:
+            print(f"bad reply: {err}", file=sys.stderr)
+            return None
 
 
 def ps(args) -> int:
@@ -129,9 +130,12 @@ def down(args) -> int:
         if profile is None:
             return 1
         key = supervisor_key(profile, "down")
-        if not any(r.ok is not None for r in session.get(key, timeout=5.0)):
-            print(f"the supervisor of {profile} did not answer", file=sys.stderr)
+        payload, problem = ask_owner(session, key, 5.0)  # every queryable asked: the supervisor always hears it
+        if payload is None and "different answers" not in problem:
+            print(f"the supervisor of {profile} did not answer: {problem}", file=sys.stderr)
             return 1
+        if problem:
+            print(f"warning: {problem}", file=sys.stderr)
         end = time.monotonic() + 30
         while time.monotonic() < end:  # the supervisor's token goes when everything has stopped
             if not any(r.ok is not None for r in session.liveliness().get(f"dogged/supervisor/{profile}", timeout=1)):
