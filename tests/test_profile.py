@@ -37,3 +37,23 @@ def test_errors_name_the_field(tmp_path, text, message):
 def test_demonstrator_role_from_args(tmp_path):
     p = load_profile(write(tmp_path, "[services.d]\nbox='demonstrator'\nargs=['--role','default','--teacher','hold']"))
     assert p.services[0].role == "default"
+
+
+LEARNERS = "[services.l]\nbox='learner'\n[services.k]\nbox='learner'\nargs=['--state-dir','own']\n[services.t]\nbox='demonstrator'\n"
+
+
+@pytest.mark.parametrize("head, state", [
+    ("[profile]\nlog_dir='run/logs'\n", "run/state"),          # by default beside the logs
+    ("[profile]\nstate_dir='elsewhere'\n", "elsewhere"),
+    ("[profile]\nstate_dir=''\n", None),                        # said so: learners forget on restart
+])
+def test_every_learner_keeps_its_state_unless_the_profile_says_not(tmp_path, head, state):
+    p = load_profile(write(tmp_path, head + LEARNERS))
+    args = {s.name: p.service_args(s) for s in p.services}
+    assert args["l"] == (() if state is None else ("--state-dir", state))
+    assert args["k"] == ("--state-dir", "own") and args["t"] == ()
+
+
+def test_state_dir_must_be_a_string(tmp_path):
+    with pytest.raises(ProfileError, match="profile.state_dir: expected str"):
+        load_profile(write(tmp_path, "[profile]\nstate_dir=3\n" + LEARNERS))

@@ -23,7 +23,7 @@ args = ["--teacher", "sine", "--on"]
 
 [services.learner]
 box = "learner"
-args = ["--learner", "knn", "--state-dir", "{state}"]
+args = ["--learner", "knn"]  # its state: the profile's default state_dir (beside log_dir)
 restart = "always"
 backoff_s = 0.2
 

@@ -45,6 +45,15 @@ class Profile:
     services: tuple[ServiceSpec, ...]
     low_latency: bool = False  # hold a PM QoS request so CPUs stay out of deep idle (services.realtime)
     security: Path | None = None  # a `dogged certs` directory: mutual TLS and access control
+    # where learners keep every pair they learned (their --state-dir unless they name one), so a restarted
+    # learner comes back knowing what it was taught; None: learners without a --state-dir forget
+    state_dir: Path | None = None
+
+    def service_args(self, spec: ServiceSpec) -> tuple[str, ...]:
+        """The service's arguments, with the profile's state directory for a learner that names none."""
+        if spec.box == "learner" and self.state_dir is not None and "--state-dir" not in spec.args:
+            return (*spec.args, "--state-dir", str(self.state_dir))
+        return spec.args
 
     def identity(self, spec: ServiceSpec) -> str:
         """The certificate a service of this profile shows: <role>.<service name>."""
@@ -122,6 +131,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     except ValueError as err:
         raise ProfileError(f"profile: {err}") from None
     log_dir = Path(_get(head, "log_dir", str, "profile", f"runs/{name}/logs"))
+    state_dir = _get(head, "state_dir", str, "profile", str(log_dir.parent / "state"))  # "": no state kept
     low_latency = _get(head, "low_latency", bool, "profile", False)
     router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
@@ -135,7 +145,8 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
                 raise ProfileError(f"services.{spec.name}.after: {other!r} is not another service of this profile")
     _check_no_cycle(specs)
     security = _get(data.get("zenoh", {}), "security", str, "zenoh", "") or None
-    profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None)
+    profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None,
+                      Path(state_dir) if state_dir else None)
     if check_security:
         _check_security(profile)
     return profile

@@ -49,7 +49,7 @@ class Supervisor:
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
         return box_command(spec.box, "--instance", spec.instance, "--name", spec.name,
-                           "--connect", self.profile.router, *spec.args)
+                           "--connect", self.profile.router, *self.profile.service_args(spec))
 
     def secured(self, spec: ServiceSpec, identity: str) -> ServiceSpec:
         """The spec with the profile's certificates and this service's identity in its environment."""

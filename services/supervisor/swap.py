@@ -7,10 +7,14 @@ snapshot, and fills any gap from the arbitrator's recent pairs (see services.box
 from __future__ import annotations
 
 import dataclasses
+import logging
 import time
+from pathlib import Path
 
 from bus_schema import ControlReply
 from services.supervisor.profile import ServiceSpec, swapped_from
+
+log = logging.getLogger("dogged.supervisor")
 
 
 def parse_learner_spec(text: str) -> tuple[str, list[str]]:
@@ -58,6 +62,19 @@ def _wait(sup, session, condition, timeout: float) -> bool:
     return False
 
 
+def _set_aside_stale_log(args: tuple[str, ...], name: str) -> None:
+    """A pair log under the new learner's name is an earlier run's (swap numbers start again with each
+    `dogged up`): replayed, it would stand in for warming from the learner being replaced. It is kept,
+    renamed, not deleted."""
+    if "--state-dir" not in args:
+        return
+    log_file = Path(args[args.index("--state-dir") + 1]) / f"{name}.pairs"
+    if log_file.exists():
+        aside = log_file.with_name(f"{log_file.name}.{time.strftime('%Y%m%d-%H%M%S')}.earlier")
+        log_file.rename(aside)
+        log.warning("an earlier run's %s set aside as %s before the swap", log_file, aside.name)
+
+
 def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     from services.supervisor.supervisor import select_learner
     learners = [p for p in sup.procs.values() if p.spec.box == "learner" and p.state == "ready"]
@@ -74,6 +91,7 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     new_name = f"{base}-s{sup.swap_count}"
     args = ("--learner", learner, *params, "--warm-from", old.spec.name, *_kept_args(old.spec.args))
     spec = dataclasses.replace(old.spec, name=new_name, args=args)
+    _set_aside_stale_log(sup.profile.service_args(spec), new_name)
     started = time.monotonic()
     new = sup.add(spec)
     if not _wait(sup, session, lambda: new.state == "ready", spec.ready_timeout_s):
