@@ -3,10 +3,11 @@ the control ticks lost and the training pairs lost, a teacher teaching throughou
 
     .venv/bin/python benchmarks/faults.py [--quick]
 
-A mirroring deployment at 30 Hz in real time under the supervisor (every service restarted by
-policy, the learner keeping its state): SIGSTOP the teacher for 5 s, then SIGKILL the learner, the
-arbitrator, the Aibo, the teacher, the handler and the router in turn, and last the supervisor
-(every service must then be gone). --quick: the teacher frozen, the learner and the arbitrator.
+First a ball-seeking deployment (camera at 15 Hz) whose perception is killed; then a mirroring
+deployment at 30 Hz in real time under the supervisor (every service restarted by policy, the
+learner keeping its state): SIGSTOP the teacher for 5 s, then SIGKILL the learner, the arbitrator,
+the Aibo, the teacher, the handler and the router in turn, and last the supervisor (every service
+must then be gone). --quick: mirroring only, the teacher frozen, the learner and the arbitrator.
 First, the loop's tick latency with TLS and access control on, beside off, in the same run.
 Last line: one JSON object (recovery_s_max, pairs_lost_total, ticks_lost_total, tls_tick_p50_ms).
 """
@@ -65,7 +66,8 @@ def main(quick: bool) -> dict:
         ticks = 1000 if quick else 3000
         plain, secured = tick_latency(Path(tmp), False, ticks), tick_latency(Path(tmp), True, ticks)
         out = run_faults(Path(tmp), f"tcp/127.0.0.1:{free_port()}", killed=QUICK_KILLED if quick else KILLED,
-                         stopped=tuple(STOPPED), log=lambda line: print(line, file=sys.stderr))
+                         stopped=tuple(STOPPED), log=lambda line: print(line, file=sys.stderr),
+                         camera_endpoint=None if quick else f"tcp/127.0.0.1:{free_port()}")
     rows = out["results"]
     print(f"{'fault':<18} {'commands again (s)':>19} {'ticks lost':>11} {'pairs lost':>11} {'back':>5} "
           f"{'switch kept':>12}")

@@ -8,10 +8,17 @@ from tests.harness import free_port
 
 @pytest.fixture(scope="module")
 def faults(tmp_path_factory):
-    out = run_faults(tmp_path_factory.mktemp("faults"), f"tcp/127.0.0.1:{free_port()}")
+    out = run_faults(tmp_path_factory.mktemp("faults"), f"tcp/127.0.0.1:{free_port()}",
+                     camera_endpoint=f"tcp/127.0.0.1:{free_port()}")
     for r in out["results"]:
         print(r)
     return out
+
+
+def test_every_service_is_struck(faults):
+    assert [r.fault for r in faults["results"]] == ["kill perception", "stop mirror", "kill learner",
+                                                    "kill arbitrator", "kill aibo", "kill mirror", "kill handler",
+                                                    "kill router"]
 
 
 def test_commands_flow_again_within_2_s_of_every_fault(faults):

@@ -1,7 +1,8 @@
 """Faults over a running deployment, measured as the robot's user would feel them (issue 12).
 
 A mirroring deployment runs in real time at 30 Hz under the supervisor, every service restarted
-by policy, the learner keeping its state (`--state-dir`), a teacher teaching. Each fault SIGKILLs
+by policy, the learner keeping its state (`--state-dir`), a teacher teaching; optionally first a
+ball-seeking one (camera at 15 Hz), whose perception is killed. Each fault SIGKILLs
 one service (or SIGSTOPs it for a while) and measures, from the bus:
 
 - recovery: from the fault until commands flow again (the end of the longest gap in commands that
@@ -57,6 +58,38 @@ restart = "always"
 """
 KILLED = ("learner", "arbitrator", "aibo", "mirror", "handler", "router")
 STOPPED = {"mirror": 5.0}  # SIGSTOP for this long, then SIGCONT: a frozen teacher
+# ball seeking, for the one service mirroring lacks: perception, between the camera and the loop
+CAMERA_RATE = 15.0
+CAMERA_PROFILE = """
+[profile]
+name = "faults-camera"
+log_dir = "{run_dir}/logs"
+
+[services.aibo]
+box = "aibo"
+args = ["--command", "move", "--input", "camera", "--rate", "{rate}"]
+restart = "always"
+
+[services.perception]
+box = "perception"
+args = ["--layout", "slots"]
+restart = "always"
+
+[services.seeker]
+box = "demonstrator"
+args = ["--teacher", "ballseek"]
+restart = "always"
+
+[services.learner]
+box = "learner"
+args = ["--learner", "{learner}", "--state-dir", "{run_dir}/state"]
+restart = "always"
+
+[services.arbitrator]
+box = "arbitrator"
+restart = "always"
+"""
+CAMERA_KILLED = ("perception",)
 
 
 @dataclass
@@ -149,7 +182,7 @@ def teaching(run: LiveRun, teacher: str) -> bool:
 
 
 def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tuple[int, int],
-           log=print) -> tuple[FaultResult, tuple[int, int]]:
+           log=print, teacher: str = "mirror", rate: float = RATE) -> tuple[FaultResult, tuple[int, int]]:
     pid = run.ps()[service]["pid"]
     start = time.monotonic()
     if how == "stop":
@@ -160,12 +193,12 @@ def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tup
         os.kill(pid, signal.SIGKILL)
     back = wait_restarted(run, service)
     time.sleep(1.5)  # steady flow after
-    still_teaching = teaching(run, "mirror")
+    still_teaching = teaching(run, teacher)
     gap = record.gap_after(start)
     recovery = gap if gap > GAP else 0.0
     after = pair_deficit(run, record)
     pairs_lost = max(0, after[0] - deficit[0]) + max(0, after[1] - deficit[1])
-    result = FaultResult(f"{how} {service}", round(recovery, 3), int(recovery * RATE), pairs_lost, back,
+    result = FaultResult(f"{how} {service}", round(recovery, 3), int(recovery * rate), pairs_lost, back,
                          still_teaching)
     log(f"{result.fault}: commands again after {result.recovery_s:.2f} s, {result.ticks_lost} ticks and "
         f"{result.pairs_lost} pairs lost; back: {back}; the teacher still teaching: {still_teaching}")
@@ -192,34 +225,62 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
+def strike_in_turn(run: LiveRun, record: BusRecord, plan, warm: float, log, teacher: str, rate: float) -> list:
+    """Teach, then each (how, service) of `plan` in turn; the last pair deficit ends the list's run."""
+    run.wait_ready()
+    run.teach(True)
+    time.sleep(warm)
+    deficit = pair_deficit(run, record)
+    run.teach(True)
+    results = []
+    for how, service in plan:
+        result, deficit = strike(run, record, service, how, deficit, log, teacher, rate)
+        results.append(result)
+    return results
+
+
 def run_faults(run_dir: Path, endpoint: str, learner: str = "lwpr", killed=KILLED, stopped=tuple(STOPPED),
-               warm: float = 3.0, log=print) -> dict:
-    """Start the deployment, teach, strike each fault in turn, then kill the supervisor."""
+               warm: float = 3.0, log=print, camera_endpoint: str | None = None, camera_killed=CAMERA_KILLED) -> dict:
+    """Start the deployment, teach, strike each fault in turn, then kill the supervisor. With a
+    `camera_endpoint`, first the ball-seeking deployment on it, for perception's faults."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    profile = run_dir / "faults.toml"
-    profile.write_text(PROFILE.format(run_dir=run_dir, rate=RATE, learner=learner))
-    run = LiveRun(profile, run_dir, endpoint)
-    record = BusRecord(run)
-    results: list[FaultResult] = []
-    orphans_gone, published, held, lost, final = False, 0, 0, 0, (0, 0)
-    try:
-        run.wait_ready()
-        run.teach(True)
-        time.sleep(warm)
-        deficit = pair_deficit(run, record)
-        run.teach(True)
-        for how, services_struck in (("stop", stopped), ("kill", killed)):
-            for service in services_struck:
-                result, deficit = strike(run, record, service, how, deficit, log)
-                results.append(result)
+    out = {"results": [], "published": 0, "learner_pairs": 0, "learner_pairs_lost": 0, "pairs_missing": 0,
+           "orphans_gone": False}
+
+    def deploy(name: str, text: str, at: str, rate: float) -> tuple[LiveRun, BusRecord]:
+        folder = run_dir / name
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "faults.toml").write_text(text.format(run_dir=folder, rate=rate, learner=learner))
+        run = LiveRun(folder / "faults.toml", folder, at)
+        return run, BusRecord(run)
+
+    def tally(run: LiveRun, record: BusRecord) -> None:
         final = pair_deficit(run, record)
-        published, (held, lost) = record.published(), record.learner_pairs()
+        held, lost = record.learner_pairs()
+        out["published"] += record.published()
+        out["learner_pairs"] += held
+        out["learner_pairs_lost"] += lost
+        out["pairs_missing"] += final[0]
+
+    if camera_endpoint and camera_killed:
+        run, record = deploy("camera", CAMERA_PROFILE, camera_endpoint, CAMERA_RATE)
+        try:
+            out["results"] += strike_in_turn(run, record, [("kill", s) for s in camera_killed], warm, log, "seeker",
+                                             CAMERA_RATE)
+            tally(run, record)
+        finally:
+            record.close()
+            run.close()
+    run, record = deploy("mirroring", PROFILE, endpoint, RATE)
+    try:
+        plan = [("stop", s) for s in stopped] + [("kill", s) for s in killed]
+        out["results"] += strike_in_turn(run, record, plan, warm, log, "mirror", RATE)
+        tally(run, record)
         pids = [r["pid"] for r in run.ps().values() if r.get("pid")]
         run.supervisor.send_signal(signal.SIGKILL)
-        orphans_gone = children_gone(pids)
-        log(f"kill supervisor: every service gone: {orphans_gone}")
+        out["orphans_gone"] = children_gone(pids)
+        log(f"kill supervisor: every service gone: {out['orphans_gone']}")
     finally:
         record.close()
         run.close()
-    return {"results": results, "published": published, "learner_pairs": held, "learner_pairs_lost": lost,
-            "pairs_missing": final[0], "orphans_gone": orphans_gone}
+    return out
