@@ -16,6 +16,7 @@ Supervisor death is last: every service must be gone within a few seconds (no or
 """
 from __future__ import annotations
 
+import json
 import os
 import signal
 import time
@@ -27,68 +28,43 @@ from services.demo.live import LiveRun
 
 RATE = 30.0
 GAP = 0.25  # seconds without a command that count as commands having stopped (7.5 periods)
-PROFILE = """
-[profile]
-name = "faults"
-log_dir = "{run_dir}/logs"
+def profile_text(name: str, run_dir: Path, services: dict[str, tuple[str, list[str]]]) -> str:
+    """A profile whose every service (name: (box, args)) is restarted whenever it dies."""
+    tables = "".join(f'\n[services.{service}]\nbox = "{box}"\nargs = {json.dumps(args)}\nrestart = "always"\n'
+                     for service, (box, args) in services.items())
+    return f'[profile]\nname = "{name}"\nlog_dir = "{run_dir}/logs"\n{tables}'
 
-[services.aibo]
-box = "aibo"
-args = ["--command", "joints", "--input", "joints", "--rate", "{rate}", "--camera-hz", "0"]
-restart = "always"
 
-[services.handler]
-box = "handler"
-args = ["--distractors", "mirroring"]
-restart = "always"
+def learner_args(run_dir: Path, learner: str) -> list[str]:
+    return ["--learner", learner, "--state-dir", f"{run_dir}/state"]
 
-[services.mirror]
-box = "demonstrator"
-args = ["--teacher", "mirror"]
-restart = "always"
 
-[services.learner]
-box = "learner"
-args = ["--learner", "{learner}", "--state-dir", "{run_dir}/state"]
-restart = "always"
+def mirroring_profile(run_dir: Path, learner: str, rate: float = RATE) -> str:
+    return profile_text("faults", run_dir, {
+        "aibo": ("aibo", ["--command", "joints", "--input", "joints", "--rate", str(rate), "--camera-hz", "0"]),
+        "handler": ("handler", ["--distractors", "mirroring"]),
+        "mirror": ("demonstrator", ["--teacher", "mirror"]),
+        "learner": ("learner", learner_args(run_dir, learner)),
+        "arbitrator": ("arbitrator", []),
+    })
 
-[services.arbitrator]
-box = "arbitrator"
-restart = "always"
-"""
+
 KILLED = ("learner", "arbitrator", "aibo", "mirror", "handler", "router")
 STOPPED = {"mirror": 5.0}  # SIGSTOP for this long, then SIGCONT: a frozen teacher
 # ball seeking, for the one service mirroring lacks: perception, between the camera and the loop
 CAMERA_RATE = 15.0
-CAMERA_PROFILE = """
-[profile]
-name = "faults-camera"
-log_dir = "{run_dir}/logs"
 
-[services.aibo]
-box = "aibo"
-args = ["--command", "move", "--input", "camera", "--rate", "{rate}"]
-restart = "always"
 
-[services.perception]
-box = "perception"
-args = ["--layout", "slots"]
-restart = "always"
+def camera_profile(run_dir: Path, learner: str, rate: float = CAMERA_RATE) -> str:
+    return profile_text("faults-camera", run_dir, {
+        "aibo": ("aibo", ["--command", "move", "--input", "camera", "--rate", str(rate)]),
+        "perception": ("perception", ["--layout", "slots"]),
+        "seeker": ("demonstrator", ["--teacher", "ballseek"]),
+        "learner": ("learner", learner_args(run_dir, learner)),
+        "arbitrator": ("arbitrator", []),
+    })
 
-[services.seeker]
-box = "demonstrator"
-args = ["--teacher", "ballseek"]
-restart = "always"
 
-[services.learner]
-box = "learner"
-args = ["--learner", "{learner}", "--state-dir", "{run_dir}/state"]
-restart = "always"
-
-[services.arbitrator]
-box = "arbitrator"
-restart = "always"
-"""
 CAMERA_KILLED = ("perception",)
 
 
@@ -247,10 +223,10 @@ def run_faults(run_dir: Path, endpoint: str, learner: str = "lwpr", killed=KILLE
     out = {"results": [], "published": 0, "learner_pairs": 0, "learner_pairs_lost": 0, "pairs_missing": 0,
            "orphans_gone": False}
 
-    def deploy(name: str, text: str, at: str, rate: float) -> tuple[LiveRun, BusRecord]:
+    def deploy(name: str, profile, at: str) -> tuple[LiveRun, BusRecord]:
         folder = run_dir / name
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "faults.toml").write_text(text.format(run_dir=folder, rate=rate, learner=learner))
+        (folder / "faults.toml").write_text(profile(folder, learner))
         run = LiveRun(folder / "faults.toml", folder, at)
         return run, BusRecord(run)
 
@@ -263,7 +239,7 @@ def run_faults(run_dir: Path, endpoint: str, learner: str = "lwpr", killed=KILLE
         out["pairs_missing"] += final[0]
 
     if camera_endpoint and camera_killed:
-        run, record = deploy("camera", CAMERA_PROFILE, camera_endpoint, CAMERA_RATE)
+        run, record = deploy("camera", camera_profile, camera_endpoint)
         try:
             out["results"] += strike_in_turn(run, record, [("kill", s) for s in camera_killed], warm, log, "seeker",
                                              CAMERA_RATE)
@@ -271,7 +247,7 @@ def run_faults(run_dir: Path, endpoint: str, learner: str = "lwpr", killed=KILLE
         finally:
             record.close()
             run.close()
-    run, record = deploy("mirroring", PROFILE, endpoint, RATE)
+    run, record = deploy("mirroring", mirroring_profile, endpoint)
     try:
         plan = [("stop", s) for s in stopped] + [("kill", s) for s in killed]
         out["results"] += strike_in_turn(run, record, plan, warm, log, "mirror", RATE)

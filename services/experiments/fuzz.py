@@ -26,7 +26,7 @@ from bus_schema import (ArenaReset, Clock, Command, ControlReply, Handle, Input,
 from bus_schema.keys import supervisor_key
 from services.demo.live import LiveRun
 from services.demo.mirroring import student_error
-from services.experiments.faults import PROFILE, RATE
+from services.experiments.faults import mirroring_profile
 
 N_IN = N_OUT = 18  # the mirroring deployment's spaces
 FAR_TICKS = (2 ** 63 - 1, 2 ** 62, 10 ** 15)
@@ -233,7 +233,7 @@ def run_fuzz(run_dir: Path, endpoint: str, n_payloads: int = 9000, n_queries: in
              seed: int = 0, log=print) -> FuzzResult:
     run_dir.mkdir(parents=True, exist_ok=True)
     profile = run_dir / "faults.toml"
-    profile.write_text(PROFILE.format(run_dir=run_dir, rate=RATE, learner=learner))
+    profile.write_text(mirroring_profile(run_dir, learner))
     run = LiveRun(profile, run_dir, endpoint)
     held = run.record(f"{run.keys.prefix}/status/**")
     rng, result = np.random.default_rng(seed), FuzzResult()
