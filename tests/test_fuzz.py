@@ -37,3 +37,8 @@ def test_the_loop_keeps_its_rate_and_the_learner_learns(fuzz):
 
 def test_teaching_works_after(fuzz):
     assert fuzz.student_rms_after < 0.1
+
+
+def test_a_ghost_teacher_is_not_waited_for(fuzz):
+    """(a ghost `alive/teaching/<x>` token made every tick wait for the 20 ms deadline: issue 12)"""
+    assert fuzz.latency_ms_ghost < 10.0

@@ -80,7 +80,7 @@ class LiveRun:
 
     def tick(self) -> int:
         for key, raw in reversed(self.recorded[self.keys.input]):
-            msg = _decoded(Input, key, raw)
+            msg = decoded(Input, key, raw)
             if msg is not None:
                 return msg.tick
         return 0
@@ -108,7 +108,7 @@ class LiveRun:
 
     def messages(self, cls, key: str, since: int = 0) -> list:
         """The recorded payloads on `key`, from index `since`, that decode as `cls`."""
-        return [m for m in (_decoded(cls, k, raw) for k, raw in self.recorded[key][since:]) if m is not None]
+        return [m for m in (decoded(cls, k, raw) for k, raw in self.recorded[key][since:]) if m is not None]
 
     def close(self) -> int:
         for held in self._held:
@@ -123,7 +123,7 @@ class LiveRun:
             self._log.close()
 
 
-def _decoded(cls, key: str, raw: bytes):
+def decoded(cls, key: str, raw: bytes):
     try:
         return decode(cls, raw, key)
     except ValueError:  # SchemaError is one

@@ -24,7 +24,7 @@ import zenoh
 from bus_schema import (ArenaReset, Clock, Command, ControlReply, Handle, Input, Proposal, SelectLearner, Status,
                         TeachSwitch, TrainingPair, decode, encode)
 from bus_schema.keys import supervisor_key
-from services.demo.live import LiveRun
+from services.demo.live import LiveRun, decoded
 from services.demo.mirroring import student_error
 from services.experiments.faults import mirroring_profile
 
@@ -63,6 +63,8 @@ class FuzzResult:
     learned_after_fuzz: int = 0
     learned_at_end: int = 0
     student_rms_after: float = float("nan")
+    latency_ms_before: float = float("nan")  # median input -> command, before and with a ghost teacher
+    latency_ms_ghost: float = float("nan")
 
 
 # --- payloads ------------------------------------------------------------------------------------
@@ -213,6 +215,20 @@ def command_rate(run: LiveRun, seconds: float) -> float:
     return arbitrated(run, before) / seconds
 
 
+def median_latency_ms(run: LiveRun, seconds: float) -> float:
+    """Median time from an input's stamp to its command's arrival here, over `seconds`, in ms."""
+    lags = []
+
+    def on_command(sample) -> None:  # only appends: decoding waits until the window is over
+        lags.append((time.time(), sample.payload.to_bytes()))
+    listening = run.session.declare_subscriber(run.keys.command, on_command)
+    time.sleep(seconds)
+    listening.undeclare()
+    commands = ((at, decoded(Command, run.keys.command, raw)) for at, raw in list(lags))
+    ms = [1e3 * (at - c.stamp) for at, c in commands if c is not None and c.source != "fuzz"]
+    return float(np.median(ms)) if ms else float("nan")
+
+
 def ask(session, query: Query) -> tuple[int, int]:
     """(replies, error replies) to one query."""
     replies = errors = 0
@@ -283,13 +299,19 @@ def run_fuzz(run_dir: Path, endpoint: str, n_payloads: int = 9000, n_queries: in
         result.pids_kept = {name: row["pid"] for name, row in rows.items()} == pids
         time.sleep(5.0)  # teaching goes on
         result.learned_at_end = learned(run)
+        # a ghost: a teaching token with nobody behind it; the loop waits for it a few ticks, then not
+        result.latency_ms_before = median_latency_ms(run, 3.0)
+        ghost = run.session.liveliness().declare_token(run.keys.teaching("ghost"))
+        result.latency_ms_ghost = median_latency_ms(run, 3.0)
+        ghost.undeclare()
         run.teach(False)  # and the student, alone, does what it was taught
         off = run.tick()
         time.sleep(3.0)
         result.student_rms_after, _ = student_error(run, off + 3, until_tick=run.tick())
         log(f"fuzz: {sum(result.sent.values())} cases in {elapsed:.1f} s; command rate {result.rate_before:.1f} -> "
             f"{result.rate_during:.1f} Hz; rejections due {dict(result.expected)}, counted {result.counted}; "
-            f"student after {result.student_rms_after:.4f} rad")
+            f"student after {result.student_rms_after:.4f} rad; tick latency {result.latency_ms_before:.2f} ms, "
+            f"with a ghost teacher {result.latency_ms_ghost:.2f} ms")
     finally:
         held.undeclare()
         run.close()
