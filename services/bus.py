@@ -36,11 +36,13 @@ def add_bus_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file applied first")
 
 
-def zenoh_config(connect=None, listen=None, mode="peer", config_file=None) -> zenoh.Config:
+def zenoh_config(connect=None, listen=None, mode="peer", config_file=None,
+                 give_up_after: float | None = None) -> zenoh.Config:
     """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With
     $DOGGED_SECURITY (a `dogged certs` directory) and $DOGGED_IDENTITY (this process's certificate),
     mutual TLS, a router enforcing who may say what (services/security.py), and clients rather than
-    peers (a direct link between peers would bypass the router's access control)."""
+    peers (a direct link between peers would bypass the router's access control). A service keeps
+    trying to reach the router; with `give_up_after` (seconds) opening fails instead."""
     secured, identity = os.environ.get("DOGGED_SECURITY"), os.environ.get("DOGGED_IDENTITY")
     if secured and mode == "peer":
         mode = "client"
@@ -62,9 +64,12 @@ def zenoh_config(connect=None, listen=None, mode="peer", config_file=None) -> ze
         conf.insert_json5("connect/endpoints", json.dumps(connect))
         if mode == "peer":
             conf.insert_json5("listen/endpoints", json.dumps(listen or [LOCAL_LISTEN]))
-        # keep trying the router while it starts, instead of failing at once
-        conf.insert_json5("connect/timeout_ms", "-1")
-        conf.insert_json5("connect/exit_on_failure", "false")
+        if give_up_after is None:  # a service: keep trying the router while it starts
+            conf.insert_json5("connect/timeout_ms", "-1")
+            conf.insert_json5("connect/exit_on_failure", "false")
+        else:  # a person's command: say so rather than wait for ever
+            conf.insert_json5("connect/timeout_ms", str(int(give_up_after * 1000)))
+            conf.insert_json5("connect/exit_on_failure", "true")
     return conf
 
 

@@ -58,6 +58,10 @@ def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
         refused = cli("--connect", endpoint, "down", identity="teacher.teacher", certs=certs, timeout=30)
         assert refused.returncode != 0 and "did not answer" in refused.stderr
         assert rows()["arbitrator"]["state"] == "ready" and sup.poll() is None  # still up
+        # a person without a certificate is told so, instead of waiting for ever
+        stranger = cli("--connect", endpoint, "ps", timeout=30)
+        assert stranger.returncode == 1 and "cannot reach the router" in stranger.stderr
+        assert "DOGGED_SECURITY" in stranger.stderr
     finally:
         down = cli("--connect", endpoint, "down", identity="operator.bob", certs=certs)
         code = sup.wait(60)

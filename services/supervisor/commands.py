@@ -5,6 +5,7 @@ import collections
 import json
 import logging
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -14,7 +15,7 @@ import zenoh
 
 from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError,
                         TeachSwitch, decode, encode, supervisor_key)
-from services.bus import ask_owner, lossless_publisher, wait_matching, zenoh_config
+from services.bus import DEFAULT_ROUTER, ask_owner, lossless_publisher, wait_matching, zenoh_config
 from services.supervisor.profile import ProfileError, load_profile
 
 
@@ -60,8 +61,19 @@ def certs(directory: str, profile_file: str | None, identities: list[str]) -> in
     return 0
 
 
+ROUTER_WAIT_S = 10.0
+
+
 def _session(args):
-    return zenoh.open(zenoh_config(connect=[args.connect] if args.connect else None, mode="client"))
+    endpoint = args.connect or os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)
+    try:
+        return zenoh.open(zenoh_config(connect=[endpoint], mode="client", give_up_after=ROUTER_WAIT_S))
+    except zenoh.ZError as err:
+        secured = "" if os.environ.get("DOGGED_SECURITY") else (
+            "; a secured profile's router (tls/...) needs DOGGED_SECURITY and DOGGED_IDENTITY")
+        reason = str(err).split(" at /")[0]  # (the rest names zenoh's source file)
+        raise SystemExit(f"dogged: cannot reach the router at {endpoint} within {ROUTER_WAIT_S:.0f} s "
+                         f"({reason}){secured}") from None
 
 
 def _profile(session, args) -> str | None:
