@@ -40,18 +40,19 @@ def zenoh_config(connect=None, listen=None, mode="peer", config_file=None,
                  give_up_after: float | None = None) -> zenoh.Config:
     """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With
     $DOGGED_SECURITY (a `dogged certs` directory) and $DOGGED_IDENTITY (this process's certificate),
-    mutual TLS, a router enforcing who may say what (services/security.py), and clients rather than
-    peers (a direct link between peers would bypass the router's access control). A service keeps
-    trying to reach the router; with `give_up_after` (seconds) opening fails instead."""
+    mutual TLS, and the router and every peer enforcing who may say what (services/security.py): peers
+    link directly, so each checks what reaches it. A service keeps trying to reach the router; with
+    `give_up_after` (seconds) opening fails instead."""
     secured, identity = os.environ.get("DOGGED_SECURITY"), os.environ.get("DOGGED_IDENTITY")
-    if secured and mode == "peer":
-        mode = "client"
     conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
     if secured:
         from services.security import secure
         if not identity:
             raise ValueError("DOGGED_SECURITY is set but DOGGED_IDENTITY (this process's certificate) is not")
-        secure(conf, Path(secured), identity, router=mode == "router")
+        # a peer links straight to other peers, so it enforces the access control itself, as the router does
+        secure(conf, Path(secured), identity, enforce=mode in ("router", "peer"))
+        if mode == "peer":  # other peers link to it over TLS too
+            listen = [endpoint.replace("tcp/", "tls/", 1) for endpoint in (listen or [LOCAL_LISTEN])]
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
     # a latest-only message waits up to 20 ms for room before it is dropped (default 1 ms): on a

@@ -16,7 +16,9 @@ lets each role say only its part, as the paper's Figure 1 draws it:
 | supervisor | answer the supervisor's verbs |
 
 Everything else (subscribing, status, querying the owners) stays open to every identity. Services
-join a secured router as clients, so that every message passes the router's access control.
+join as peers that link to each other directly over mutual TLS (a hop fewer than through the
+router), so every peer enforces the same access control on what reaches it, as the router does on
+what its clients send; what the router forwards has passed its check.
 """
 from __future__ import annotations
 
@@ -90,7 +92,8 @@ def access_control(identities: list[str]) -> dict:
         by_role.setdefault(role_of(cn), []).append(cn)
     rules, policies = [], []
     for i, (what, messages, keys, owners) in enumerate(OWNERS):
-        others = [role for role in by_role if role not in owners]
+        # the router forwards what its own access control let in: a peer takes that from it
+        others = [role for role in by_role if role not in owners and role != "router"]
         if not others:
             continue
         rules.append({"id": f"r{i}", "permission": "deny", "flows": ["ingress"], "messages": messages,
@@ -113,11 +116,11 @@ def tls_section(directory: Path, cn: str) -> dict:
             "connect_private_key": str(key), "connect_certificate": str(cert)}
 
 
-def secure(conf, directory: Path, cn: str, router: bool = False) -> None:
-    """Turn a zenoh.Config into a TLS one for `cn`; a router also gets the access control of every
-    identity in the directory."""
+def secure(conf, directory: Path, cn: str, enforce: bool = False) -> None:
+    """Turn a zenoh.Config into a TLS one for `cn`; a router or a peer (which other peers reach
+    directly) also enforces the access control of every identity in the directory."""
     conf.insert_json5("transport/link/tls", json.dumps(tls_section(directory, cn)))
-    if router:
+    if enforce:
         conf.insert_json5("access_control", json.dumps(access_control(identities_in(directory))))
 
 

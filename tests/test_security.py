@@ -132,3 +132,32 @@ def test_identities_and_rules_are_checked():
     denied_to_teachers = {k for r, p in zip(rules["rules"], rules["policies"]) if "s-teacher" in p["subjects"]
                           for k in r["key_exprs"]}
     assert "dl/*/command" in denied_to_teachers and "dl/*/proposal/teacher/**" not in denied_to_teachers
+
+
+def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch):
+    """Services join as peers that link straight to each other over TLS (a hop fewer than through the
+    router); a teacher's peer linked straight to the robot's still cannot command it."""
+    from services.bus import zenoh_config
+    endpoint, directory, _ = secured
+
+    def peer(cn):
+        monkeypatch.setenv("DOGGED_SECURITY", str(directory))
+        monkeypatch.setenv("DOGGED_IDENTITY", cn)
+        return zenoh.open(zenoh_config(connect=[endpoint], mode="peer"))
+
+    got = []
+    with peer("platform.aibo") as robot, peer("arbitrator.arbitrator") as arbitrator, peer("teacher.alice") as alice:
+        held = robot.declare_subscriber("dl/main/command", lambda s: got.append(s.payload.to_bytes()))
+        others = {str(arbitrator.info.zid()), str(alice.info.zid())}
+        end = time.monotonic() + 10
+        while not others <= {str(z) for z in robot.info.peers_zid()} and time.monotonic() < end:
+            time.sleep(0.1)
+        assert others <= {str(z) for z in robot.info.peers_zid()}, "the peers did not link directly"
+        time.sleep(0.5)
+        for _ in range(5):
+            arbitrator.put("dl/main/command", b"arbitrator")
+            alice.put("dl/main/command", b"alice")
+            time.sleep(0.05)
+        time.sleep(0.5)
+        del held
+    assert set(got) == {b"arbitrator"}
