@@ -39,7 +39,7 @@ LOOP = (("demonstrator", "teacher.sine", ("--teacher", "sine", "--name", "sine")
 
 def tick_latency(work: Path, secured: bool, ticks: int) -> float:
     """p50 (ms) of the loop's tick (point platform at 100 Hz -> learner, teacher, arbitrator -> back),
-    as deployed: peers on plain TCP, or clients of a TLS router enforcing access control."""
+    as deployed: peers on plain TCP, or TLS peers that each enforce the access control."""
     scheme = "tls" if secured else "tcp"
     work, router = work / scheme, f"{scheme}/127.0.0.1:{free_port()}"
     work.mkdir()
@@ -79,7 +79,7 @@ def main(quick: bool) -> dict:
     print(f"pairs published {out['published']}, held by the learner {out['learner_pairs']} "
           f"(missing {out['pairs_missing']}, counted lost by it {out['learner_pairs_lost']})")
     print(f"tick p50 at 100 Hz ({ticks} ticks): {plain:.3f} ms plain (peers, TCP), {secured:.3f} ms with TLS and "
-          f"access control (clients of the router): x{secured / plain:.2f}")
+          f"access control (TLS peers): x{secured / plain:.2f}")
     print("targets: commands again within 2 s of every fault; 0 pairs lost; TLS under 20 % of the tick")
     return {"faults": len(rows), "recovery_s_max": max(r.recovery_s for r in rows),
             "pairs_lost_total": sum(r.pairs_lost for r in rows) + out["pairs_missing"],

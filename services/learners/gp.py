@@ -5,17 +5,17 @@ It remembers up to `memory` samples and answers with the exact posterior over th
 the most redundant are thinned (of two close samples the older goes), so every region taught
 keeps its examples and a newer lesson outweighs an older one there. One length scale per input
 and the outputs' amplitude and noise are refitted by maximum a posteriori evidence (gp_evidence)
-after `first_fit`, 2 `first_fit`, 4 `first_fit`, ... samples (never on fewer samples than inputs:
-those cannot tell which inputs matter), then every `refit_every`, and early when the teaching
-surprises the fit or spreads an input further than the fit saw: inputs that do not explain the
-teaching (distractors, readings dragged along) grow long length scales and stop mattering. Serving
-live (`serve_live`, the learner service) a fit runs on a thread of its own and is applied when done;
-teaching that went on meanwhile is fitted next, so when teaching stops the last fit has seen it all.
-Far from what it was taught the posterior reverts to the taught mean, and an answer is held to
-the taught range plus 10 % of its span, unless the evidence says the map is linear and the
-posterior trusts the answer more than the held one: a linear map extends past the
-part of it that was shown (the mirroring task, from 15-30 samples), a curved one's trend is not
-followed away from what was taught.
+after `first_fit` samples and then each time half as many again, 8, 12, 18, 27, ... (never on
+fewer samples than inputs: those cannot tell which inputs matter), then every `refit_every`, and
+early when the teaching surprises the fit or spreads an input further than the fit saw: inputs
+that do not explain the teaching (distractors, readings dragged along) grow long length scales
+and stop mattering. Serving live (`serve_live`, the learner service) a fit runs on a thread of
+its own and is applied when done; teaching that went on meanwhile is fitted next, so when
+teaching stops the last fit has seen it all. Far from what it was taught the posterior reverts
+to the taught mean, and an answer is held to the taught range plus 10 % of its span, unless the
+evidence says the map is linear and the posterior trusts the answer more than the held one: a
+linear map extends past the part of it that was shown (the mirroring task, from 15-30 samples),
+a curved one's trend is not followed away from what was taught.
 
 Confidence is the probability that the answer is within `near` of the taught span from the
 teacher's, under the posterior: erf(near * span / (sd * sqrt 2)) for the least sure output, times
@@ -115,7 +115,7 @@ class GP(Learner):
         if not self._remembered(x, y):
             self._remember(x, y)
         if self._y_count >= self._next_fit and self._pending is None:  # n_learned lags inside learn_many
-            self._next_fit = min(2 * self._next_fit, self._next_fit + self.refit_every)
+            self._next_fit += min(max(self._next_fit // 2, 1), self.refit_every)
             if self._factored:
                 self._refit()
         elif self._factored and self._y_count - self._last_fit >= SURPRISE_REFIT_GAP:
