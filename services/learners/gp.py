@@ -13,9 +13,9 @@ and stop mattering. Serving live (`serve_live`, the learner service) a fit runs 
 its own and is applied when done; teaching that went on meanwhile is fitted next, so when
 teaching stops the last fit has seen it all. Far from what it was taught the posterior reverts
 to the taught mean, and an answer is held to the taught range plus 10 % of its span, unless the
-evidence says the map is linear and the posterior trusts the answer more than the held one: a
-linear map extends past the part of it that was shown (the mirroring task, from 15-30 samples),
-a curved one's trend is not followed away from what was taught.
+evidence says the map is linear: a linear map extends past the part of it that was shown (the
+mirroring task, from 15-30 samples), a curved one's trend is not followed away from what was
+taught.
 
 Confidence is the probability that the answer is within `near` of the taught span from the
 teacher's, under the posterior: erf(near * span / (sd * sqrt 2)) for the least sure output, times
@@ -312,16 +312,12 @@ class GP(Learner):
         with np.errstate(divide="ignore", invalid="ignore"):
             per_output = np.where(sd > 0.0, erf(self.near * span / (sd * math.sqrt(2.0))), 1.0)
         # an answer is held within the taught range plus a margin, unless the evidence says the map is
-        # linear (the smooth part's share of the variance under LINEAR_ENOUGH) and the posterior trusts
-        # the answer more than the held one, P(truth nearer it) >= 1/2: a linear map extends past the part
-        # of it that was shown; a curved one's trend is not followed away from what was taught
+        # linear (the smooth part's share of the variance under LINEAR_ENOUGH): a linear map extends past
+        # the part of it that was shown, and there the posterior mean is the likelier answer than any
+        # held one; a curved one's trend is not followed away from what was taught
         y = self._hyper.mu + offset
-        held = self._taught.bound(y)
-        if self._smooth <= LINEAR_ENOUGH:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                trusted = erf(np.abs(y - held) / (2.0 * math.sqrt(2.0) * sd)) >= 0.5
-            held = np.where(trusted, y, held)
-        y = held
+        if self._smooth > LINEAR_ENOUGH:
+            y = self._taught.bound(y)
         ramp = min(1.0, self._n_learned / (2.0 * self.n_in))
         # the posterior's variance sees novelty along the inputs it was fitted on; only along an input that
         # never varied (its relevance unknown: the orange ball before any lesson with it) the envelope must
