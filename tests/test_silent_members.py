@@ -40,3 +40,16 @@ def test_a_ghost_teacher_is_waited_for_a_few_ticks_then_not_until_it_answers():
     assert tick(arb, 30.0, 30, ("learner/student", "teacher/ghost")) < DEADLINE
     assert arb.status()[1]["not_waited_for"] == [] and arb.counts["train_pairs"] == 1
     assert tick(arb, 31.0, 31) == DEADLINE  # silent again: waited for, a deadline at a time
+
+
+def test_a_teacher_that_holds_no_teaching_token_does_not_drive_or_teach():
+    """(publishing on proposal/teacher/<any name> drove the robot and trained the learner: issue 12)"""
+    arb = Arbitrator(FakeSession(), KEYS, SPACES, TeacherFirst(), DEADLINE, "student", "teacher", 16,
+                     logging.getLogger("test"))
+    arb.on_alive(KEYS.alive("learner", "student"), zenoh.SampleKind.PUT)
+    tick(arb, 1.0, 1, ("learner/student", "teacher/stranger"))
+    assert arb.counts["train_pairs"] == 0 and arb.counts["mode_teacher"] == 0
+    assert arb.counts["teacher_proposals_without_token"] == 1
+    arb.on_alive(KEYS.alive("teaching", "alice"), zenoh.SampleKind.PUT)
+    tick(arb, 2.0, 2, ("learner/student", "teacher/alice"))
+    assert arb.counts["train_pairs"] == 1 and arb.counts["mode_teacher"] == 1

@@ -68,6 +68,21 @@ class Arbitrator:
             out.add(f"learner/{learner}")
         return {member for member in out if self.missed[member] < MISSES_BEFORE_IGNORED}
 
+    def speaking(self, entry, role: str, token: str) -> list:
+        """The tick's proposals from members of `role` that hold their `token` (a teacher switched on, a
+        default controller alive) and said something; a proposal from anyone else is counted, unused."""
+        holders = self.members.names(token)
+        out = []
+        for member, p in entry.proposals.items():
+            kind, _, name = member.partition("/")
+            if kind != role or p.y is None:
+                continue
+            if name in holders:
+                out.append((member, p))
+            else:
+                self.counts[f"{role}_proposals_without_token"] += 1
+        return out
+
     def on_alive(self, key, kind):
         parsed = self.members.update(key, kind)
         if parsed is not None:  # a member that came or went starts afresh
@@ -138,10 +153,10 @@ class Arbitrator:
                         self.log.warning("%s missed %d deadlines in a row: not waited for until it answers", member,
                                          MISSES_BEFORE_IGNORED)
                         self.counts["members_silenced"] += 1
-            teachers = [(m, p) for m, p in entry.proposals.items() if m.startswith("teacher/") and p.y is not None]
+            teachers = self.speaking(entry, "teacher", "teaching")
             mine = f"learner/{learner}"
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
-            defaults = [(m, p) for m, p in entry.proposals.items() if m.startswith("default/") and p.y is not None]
+            defaults = self.speaking(entry, "default", "default")
             d = self.strategy.decide(teachers, learner_p, defaults[0] if defaults else None, self.last_command)
             y = self.output_space.clip(d.y)
             if not np.array_equal(y, d.y):

@@ -49,8 +49,9 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
         def switch(on: bool):
             nonlocal teaching
             if on and teaching is None:
-                listen(True)
+                # the token first: the arbitrator takes a teacher's proposals only while it holds one
                 teaching = session.liveliness().declare_token(keys.teaching(name))
+                listen(True)
                 log.info("teaching ON")
             elif not on and teaching is not None:
                 teaching.undeclare()
