@@ -12,6 +12,7 @@ import logging
 import os
 import queue
 import signal
+import socket
 import threading
 import time
 from collections import Counter
@@ -23,7 +24,8 @@ from bus_schema import SchemaError, Status, encode
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 LOCAL_LISTEN = "tcp/127.0.0.1:0"
-DUMP_STACKS = signal.SIGUSR1  # a service asked this prints its threads' stacks to its log
+DUMP_STACKS = signal.SIGUSR1
+HOST = os.environ.get("DOGGED_HOST") or socket.gethostname()  # the machine a service's status says it runs on  # a service asked this prints its threads' stacks to its log
 
 
 def add_bus_args(parser: argparse.ArgumentParser) -> None:
@@ -31,19 +33,52 @@ def add_bus_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--connect", action="append", default=None,
                    help=f"router endpoint(s) (default $DOGGED_CONNECT or {DEFAULT_ROUTER})")
     g.add_argument("--listen", action="append", default=None, help="endpoint(s) to listen on")
-    g.add_argument("--mode", choices=("peer", "client", "router"), default="peer",
-                   help="peer (default, direct links to other services), client (all via the router), router")
+    g.add_argument("--mode", choices=("auto", "peer", "client", "router"), default="auto",
+                   help="peer (direct links to the other services on this machine), client (all via the router), "
+                        "router; auto (default): peer when the router is on loopback, else client")
     g.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file applied first")
+    add_certificate_args(g)
 
 
-def zenoh_config(connect=None, listen=None, mode="peer", config_file=None,
-                 give_up_after: float | None = None) -> zenoh.Config:
-    """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With
-    $DOGGED_SECURITY (a `dogged certs` directory) and $DOGGED_IDENTITY (this process's certificate),
+def add_certificate_args(parser) -> None:
+    # (dests of their own: `dogged certs` has an --identity of its own)
+    parser.add_argument("--security", dest="cert_dir", default=None, metavar="DIR",
+                        help="a `dogged certs` directory holding ca.pem and this identity's key and certificate "
+                             "(default $DOGGED_SECURITY): mutual TLS to a secured router")
+    parser.add_argument("--identity", dest="cert_identity", default=None, metavar="ROLE.NAME",
+                        help="which certificate of it to show, e.g. teacher.alice (default $DOGGED_IDENTITY)")
+
+
+def use_certificate(args: argparse.Namespace) -> None:
+    """--security/--identity stand for $DOGGED_SECURITY/$DOGGED_IDENTITY (zenoh_config reads those)."""
+    if getattr(args, "cert_dir", None):
+        os.environ["DOGGED_SECURITY"] = args.cert_dir
+    if getattr(args, "cert_identity", None):
+        os.environ["DOGGED_IDENTITY"] = args.cert_identity
+
+
+def resolved_mode(mode: str, connect: list[str] | None) -> str:
+    """"auto" is peer beside a router on loopback and client towards another machine's: peers listen on
+    loopback, so peers on two machines could never link, and the router leaves peers to link themselves."""
+    if mode != "auto":
+        return mode
+    from services.security import is_loopback
+    endpoints = connect or [os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)]
+    return "peer" if all(is_loopback(e) for e in endpoints) else "client"
+
+
+def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
+                 give_up_after: float | None = None, security: Path | None = None,
+                 identity: str | None = None) -> zenoh.Config:
+    """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With `security`
+    (a `dogged certs` directory; default $DOGGED_SECURITY) and `identity` (this process's certificate;
+    default $DOGGED_IDENTITY),
     mutual TLS, and the router and every peer enforcing who may say what (services/security.py): peers
     link directly, so each checks what reaches it. A service keeps trying to reach the router; with
     `give_up_after` (seconds) opening fails instead."""
-    secured, identity = os.environ.get("DOGGED_SECURITY"), os.environ.get("DOGGED_IDENTITY")
+    secured = security or os.environ.get("DOGGED_SECURITY")
+    identity = identity or os.environ.get("DOGGED_IDENTITY")
+    mode = resolved_mode(mode, connect)
     conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
     if secured:
         from services.security import secure
@@ -75,6 +110,7 @@ def zenoh_config(connect=None, listen=None, mode="peer", config_file=None,
 
 
 def config_from_args(args: argparse.Namespace) -> zenoh.Config:
+    use_certificate(args)
     return zenoh_config(args.connect, args.listen, args.mode, args.zenoh_config)
 
 
@@ -165,6 +201,10 @@ class StatusPublisher:
         self.role, self.name, self.period, self._next = role, name, period, 0.0
         self._previous: tuple[float, dict] | None = None
 
+    def publish_soon(self) -> None:
+        """The next maybe_publish publishes, whenever the last one was (a change worth telling at once)."""
+        self._next = 0.0
+
     def maybe_publish(self, report) -> None:
         """When due, publishes report() -> (counters, state), adding state['rates']: each counter's
         change per second since the last status. `report` is only called when due (off the hot path)."""
@@ -178,7 +218,8 @@ class StatusPublisher:
             then, before = self._previous
             rates = {k: round((v - before.get(k, 0)) / (now - then), 1) for k, v in counters.items()}
         self._previous = (now, dict(counters))
-        self._pub.put(encode(Status(self.role, self.name, os.getpid(), counters, {**state, "rates": rates})))
+        self._pub.put(encode(Status(self.role, self.name, os.getpid(), counters,
+                                    {**state, "rates": rates, "host": HOST})))
 
 
 def sensor_publisher(session: zenoh.Session, key: str, bulky: bool = False) -> zenoh.Publisher:

@@ -19,6 +19,7 @@ def run_box(argv: list[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from services.bus import add_certificate_args, use_certificate
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["run"]:
         return run_box(argv[1:])
@@ -28,12 +29,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
     parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
     parser.add_argument("--profile", default=None, help="which running profile (default: the only one)")
+    add_certificate_args(parser)
     sub = parser.add_subparsers(dest="verb", required=True)
     sub.add_parser("run", help="run one box: dogged run <box> --help")
     sub.add_parser("demo", help="the headline demo: ball seeking end to end (dogged demo --help)")
     up = sub.add_parser("up", help="start a router and every service of a profile; Ctrl-C stops all")
     up.add_argument("profile_file")
     up.add_argument("--router", default=None, help="override the profile's router endpoint")
+    up.add_argument("--join", default=None, metavar="ENDPOINT",
+                    help="start no router: join the one another machine runs (e.g. tls/192.168.1.10:7447)")
     up.add_argument("--quiet", action="store_true", help="do not echo service logs to the console")
     up.add_argument("--insecure", action="store_true", help="listen beyond loopback without TLS and access control")
     certs = sub.add_parser("certs", help="a CA and certificates: every identity a profile needs, and people's")
@@ -66,9 +70,10 @@ def main(argv: list[str] | None = None) -> int:
                        help="put a ball at X,Y metres (the robot starts at 0,0 facing +x), or take it away (repeatable)")
     arena.add_argument("--robot", default="aibo")
     args = parser.parse_args(argv)
+    use_certificate(args)
     if args.verb == "up":
         from services.supervisor.commands import up
-        return up(args.profile_file, args.router, not args.quiet, args.insecure)
+        return up(args.profile_file, args.router, not args.quiet, args.insecure, args.join)
     if args.verb == "certs":
         from services.supervisor.commands import certs
         return certs(args.directory, args.profile_file, args.identity)

@@ -45,6 +45,7 @@ class Arbitrator:
         self.last_command = np.zeros(spaces.output.dims)
         self.rejects = Rejects(log)
         self.counts = collections.Counter()
+        self.status_due = False  # who is waited for changed: say so now, not at the next second
         self.command_pub = sensor_publisher(session, keys.command)
         self.train_pub = lossless_publisher(session, keys.train)
 
@@ -114,7 +115,8 @@ class Arbitrator:
         if msg is not None:
             self.counts["proposals"] += 1
             member = f"{parts[3]}/{parts[4]}"
-            self.missed.pop(member, None)  # it answers: waited for again
+            if self.missed.pop(member, 0) >= MISSES_BEFORE_IGNORED:  # it answers: waited for again
+                self.status_due = True
             self.table.add_proposal(member, msg, now)
 
     def on_select(self, key, raw, now):
@@ -153,6 +155,7 @@ class Arbitrator:
                         self.log.warning("%s missed %d deadlines in a row: not waited for until it answers", member,
                                          MISSES_BEFORE_IGNORED)
                         self.counts["members_silenced"] += 1
+                        self.status_due = True
             teachers = self.speaking(entry, "teacher", "teaching")
             mine = f"learner/{learner}"
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
@@ -224,6 +227,9 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
                 arb.decide_ready(now)
                 item = inbox.get_nowait()
             arb.decide_ready(time.monotonic())
+            if arb.status_due:
+                arb.status_due = False
+                status.publish_soon()
             status.maybe_publish(arb.status)
     return 0
 

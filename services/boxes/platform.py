@@ -78,6 +78,8 @@ class PlatformLoop:
                                          f"(its last tick is {self.tick})"))
             return
         self.counts["commands"] += 1
+        if msg.tick < self.tick:  # the answer came after the next input went out
+            self.counts["stale_commands"] += 1
         if self.tick - ANSWER_WINDOW < msg.tick <= self.tick:
             self.answered.add(msg.tick)
         latency = time.time() - msg.stamp
@@ -116,7 +118,8 @@ class PlatformLoop:
 
     def status(self):
         lat = np.array(self.recent_latency) * 1e3 if self.recent_latency else np.zeros(1)
-        counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick)
+        # lost: ticks that left the answer window unanswered
+        counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick, lost_ticks=self.n_unanswered)
         state = {"mode": self.mode, "latency_p50_ms": round(float(np.percentile(lat, 50)), 3),
                  "latency_p99_ms": round(float(np.percentile(lat, 99)), 3)}
         return counters, state

@@ -20,16 +20,17 @@ from services.bus import lossless_publisher, wait_matching, zenoh_config
 REPO = Path(__file__).resolve().parents[2]
 
 
-class LiveRun:
-    def __init__(self, profile: Path, run_dir: Path, endpoint: str, instance: str = "main", robot: str = "aibo"):
-        self.run_dir, self.endpoint = run_dir, endpoint
+class BusRecorder:
+    """A person's view of a running deployment over the bus: records the loop, switches teachers,
+    resets the arena. `certificate`: (a `dogged certs` directory, identity) for a secured router."""
+
+    def __init__(self, endpoint: str, instance: str = "main", robot: str = "aibo",
+                 certificate: tuple[Path, str] | None = None):
+        self.endpoint = endpoint
         self.keys, self.robot = InstanceKeys(instance), RobotKeys(robot)
-        run_dir.mkdir(parents=True, exist_ok=True)
-        self._log = open(run_dir / "supervisor.log", "ab")
-        self.supervisor = subprocess.Popen([sys.executable, "-m", "services.cli", "up", str(profile), "--router",
-                                            endpoint, "--quiet"], cwd=REPO, stdout=self._log,
-                                           stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-        self.session = zenoh.open(zenoh_config(connect=[endpoint], mode="client"))
+        security, identity = certificate or (None, None)
+        self.session = zenoh.open(zenoh_config(connect=[endpoint], mode="client", security=security,
+                                               identity=identity, give_up_after=30))
         self.recorded: dict[str, list] = {}
         self._held = [self.record(k) for k in (self.keys.input, self.keys.command, self.robot.state,
                                                   f"{self.keys.prefix}/proposal/learner/*")]
@@ -37,27 +38,20 @@ class LiveRun:
         self._arena = lossless_publisher(self.session, self.robot.arena)
 
     def record(self, key: str):
-        """Keep every payload on `key` in self.recorded[key] (as (key, bytes)) while the subscriber lives."""
-        bucket = self.recorded.setdefault(key, [])
-        return self.session.declare_subscriber(key, lambda s: bucket.append((str(s.key_expr), s.payload.to_bytes())))
+        """Keep every payload on `key` in self.recorded[key], as (key, bytes, arrival time.time()), while
+        the subscriber lives (one subscriber per key)."""
+        if key in self.recorded:
+            raise ValueError(f"{key} is recorded already")
+        bucket = self.recorded[key] = []
+        return self.session.declare_subscriber(
+            key, lambda s: bucket.append((str(s.key_expr), s.payload.to_bytes(), time.time())))
+
+    def close(self) -> None:
+        for held in self._held:
+            held.undeclare()
+        self.session.close()
 
     # --- steering ---------------------------------------------------------------------------
-    def ps(self) -> dict:
-        out = subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "ps", "--json"],
-                             cwd=REPO, capture_output=True, text=True, timeout=30)
-        return {r["name"]: r for r in json.loads(out.stdout)["services"]} if out.returncode == 0 else {}
-
-    def wait_ready(self, timeout: float = 180.0) -> None:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            rows = self.ps()
-            if rows and all(r["state"] == "ready" for r in rows.values()):
-                return
-            if self.supervisor.poll() is not None:
-                raise RuntimeError(f"the supervisor exited; see {self.run_dir / 'supervisor.log'}")
-            time.sleep(0.5)
-        raise TimeoutError(f"services not ready after {timeout} s: {self.ps()}")
-
     def teach(self, on: bool, teacher: str = "") -> None:
         wait_matching(self._teach, 5.0)
         self._teach.put(encode(TeachSwitch(teacher, on)))
@@ -79,7 +73,7 @@ class LiveRun:
         return decode(Command, commands[-1][1], self.keys.command).mode if commands else ""
 
     def tick(self) -> int:
-        for key, raw in reversed(self.recorded[self.keys.input]):
+        for key, raw, _ in reversed(self.recorded[self.keys.input]):
             msg = decoded(Input, key, raw)
             if msg is not None:
                 return msg.tick
@@ -108,12 +102,38 @@ class LiveRun:
 
     def messages(self, cls, key: str, since: int = 0) -> list:
         """The recorded payloads on `key`, from index `since`, that decode as `cls`."""
-        return [m for m in (decoded(cls, k, raw) for k, raw in self.recorded[key][since:]) if m is not None]
+        return [m for m in (decoded(cls, k, raw) for k, raw, _ in self.recorded[key][since:]) if m is not None]
+
+class LiveRun(BusRecorder):
+    """A profile brought up by the supervisor (in a child process), recorded and steered."""
+
+    def __init__(self, profile: Path, run_dir: Path, endpoint: str, instance: str = "main", robot: str = "aibo"):
+        self.run_dir = run_dir
+        run_dir.mkdir(parents=True, exist_ok=True)
+        self._log = open(run_dir / "supervisor.log", "ab")
+        self.supervisor = subprocess.Popen([sys.executable, "-m", "services.cli", "up", str(profile), "--router",
+                                            endpoint, "--quiet"], cwd=REPO, stdout=self._log,
+                                           stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        super().__init__(endpoint, instance, robot)
+
+    def ps(self) -> dict:
+        out = subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "ps", "--json"],
+                             cwd=REPO, capture_output=True, text=True, timeout=30)
+        return {r["name"]: r for r in json.loads(out.stdout)["services"]} if out.returncode == 0 else {}
+
+    def wait_ready(self, timeout: float = 180.0) -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            rows = self.ps()
+            if rows and all(r["state"] == "ready" for r in rows.values()):
+                return
+            if self.supervisor.poll() is not None:
+                raise RuntimeError(f"the supervisor exited; see {self.run_dir / 'supervisor.log'}")
+            time.sleep(0.5)
+        raise TimeoutError(f"services not ready after {timeout} s: {self.ps()}")
 
     def close(self) -> int:
-        for held in self._held:
-            held.undeclare()
-        self.session.close()
+        super().close()
         if self.supervisor.poll() is None:  # (a fault suite may have killed it)
             subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "down"], cwd=REPO,
                            capture_output=True, timeout=60)

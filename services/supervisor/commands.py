@@ -19,18 +19,20 @@ from services.bus import DEFAULT_ROUTER, ask_owner, lossless_publisher, wait_mat
 from services.supervisor.profile import ProfileError, load_profile
 
 
-def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False) -> int:
+def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False, join: str | None = None) -> int:
     from services.security import is_loopback
     from services.supervisor.supervisor import Supervisor
     logging.basicConfig(level="INFO", format="%(asctime)s %(levelname)s supervisor: %(message)s")
     try:
-        profile = load_profile(profile_file, router)
+        profile = load_profile(profile_file, router, join=join)
     except ProfileError as err:
         print(f"dogged up: {err}", file=sys.stderr)
         return 2
     if profile.security is None and not is_loopback(profile.router) and not insecure:
-        print(f"dogged up: the router would listen on {profile.router}, beyond this machine, and anyone who reaches "
-              f"it could drive the robot: set zenoh.security to a `dogged certs` directory (mutual TLS and access "
+        where = (f"the services would reach the router at {profile.router} in the clear, and anyone who reaches it "
+                 f"could drive the robot" if join else f"the router would listen on {profile.router}, beyond this "
+                 f"machine, and anyone who reaches it could drive the robot")
+        print(f"dogged up: {where}: set zenoh.security to a `dogged certs` directory (mutual TLS and access "
               f"control), or say --insecure", file=sys.stderr)
         return 2
     return Supervisor(profile, echo).run()
@@ -112,11 +114,13 @@ def ps(args) -> int:
     if args.json:
         print(json.dumps(reply.data))
         return 0
-    print(f"{'SERVICE':<14}{'BOX':<14}{'PID':>8}  {'STATE':<9}{'RESTARTS':>9}{'UPTIME':>9}  RATES (/s)")
+    print(f"{'SERVICE':<14}{'BOX':<14}{'HOST':<12}{'PID':>8}  {'STATE':<9}{'RESTARTS':>9}{'UPTIME':>9}  RATES (/s)")
     for row in reply.data["services"]:
         rates = " ".join(f"{k}={v:g}" for k, v in sorted(row["rates"].items()))
-        print(f"{row['name']:<14}{row['box']:<14}{row['pid']:>8}  {row['state']:<9}{row['restarts']:>9}"
-              f"{row['uptime_s']:>8.0f}s  {rates}")
+        ticks = " ".join(f"{k}={v:g}" for k, v in sorted(row.get("ticks", {}).items()))
+        uptime = f"{row['uptime_s']:>8.0f}s" if row["state"] != "remote" else f"{'-':>9}"
+        print(f"{row['name']:<14}{row['box']:<14}{row.get('host', '?')[:11]:<12}{row['pid']:>8}  {row['state']:<9}"
+              f"{row['restarts']:>9}{uptime}  {rates}{'  ' + ticks if ticks else ''}")
     return 0
 
 

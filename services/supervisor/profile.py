@@ -9,6 +9,7 @@ from bus_schema import check_name
 
 BOXES = ("platform", "demonstrator", "learner", "arbitrator", "aibo", "perception", "handler", "chain")
 RESTART = ("never", "on-failure", "always")
+SECURE_SCHEMES = ("tls", "quic")  # Zenoh links with mutual TLS: over TCP, and over UDP
 
 
 class ProfileError(ValueError):
@@ -48,6 +49,9 @@ class Profile:
     # where learners keep every pair they learned (their --state-dir unless they name one), so a restarted
     # learner comes back knowing what it was taught; None: learners without a --state-dir forget
     state_dir: Path | None = None
+    # the router runs on another machine (`dogged up --join ENDPOINT`): start none, connect there
+    join: bool = False
+    also_listen: tuple[str, ...] = ()  # more endpoints the router listens on (a quic/ one for a radio link)
 
     def service_args(self, spec: ServiceSpec) -> tuple[str, ...]:
         """The service's arguments, with the profile's state directory for a learner that names none."""
@@ -62,8 +66,10 @@ class Profile:
         return f"{BOX_ROLES[spec.box]}.{name}"
 
     def identities(self) -> list[str]:
-        """Every certificate the profile needs: the router's, the supervisor's, each service's."""
-        return ["router.router", f"supervisor.{self.name}"] + [self.identity(s) for s in self.services]
+        """Every certificate the profile needs: the router's (unless it joins another's), the supervisor's,
+        each service's."""
+        return ([] if self.join else ["router.router"]) + [f"supervisor.{self.name}"] + \
+            [self.identity(s) for s in self.services]
 
 
 def swapped_from(name: str) -> str:
@@ -112,7 +118,9 @@ def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
     return spec
 
 
-def load_profile(path: str | Path, router: str | None = None, check_security: bool = True) -> Profile:
+def load_profile(path: str | Path, router: str | None = None, check_security: bool = True,
+                 join: str | None = None) -> Profile:
+    """A profile from TOML; `join`: the endpoint of a router another machine runs (none is started)."""
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
@@ -133,7 +141,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     log_dir = Path(_get(head, "log_dir", str, "profile", f"runs/{name}/logs"))
     state_dir = _get(head, "state_dir", str, "profile", str(log_dir.parent / "state"))  # "": no state kept
     low_latency = _get(head, "low_latency", bool, "profile", False)
-    router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
+    router = join or router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
     if not isinstance(services, dict) or not services:
         raise ProfileError("services: at least one [services.<name>] table is required")
@@ -144,9 +152,16 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
             if other not in names or other == spec.name:
                 raise ProfileError(f"services.{spec.name}.after: {other!r} is not another service of this profile")
     _check_no_cycle(specs)
-    security = _get(data.get("zenoh", {}), "security", str, "zenoh", "") or None
+    zenoh_table = data.get("zenoh", {})
+    for key in zenoh_table:
+        if key not in ("router", "security", "also_listen"):
+            raise ProfileError(f"zenoh.{key}: unknown field; known: router, security, also_listen")
+    security = _get(zenoh_table, "security", str, "zenoh", "") or None
+    also_listen = _get(zenoh_table, "also_listen", list, "zenoh", [])
+    if not all(isinstance(e, str) and "/" in e for e in also_listen):
+        raise ProfileError(f"zenoh.also_listen: expected a list of endpoints like quic/10.0.0.1:7447, got {also_listen!r}")
     profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None,
-                      Path(state_dir) if state_dir else None)
+                      Path(state_dir) if state_dir else None, join=join is not None, also_listen=tuple(also_listen))
     if check_security:
         _check_security(profile)
     return profile
@@ -156,11 +171,15 @@ def _check_security(profile: Profile) -> None:
     """A secured profile routes over tls/ and has every certificate it needs; tls/ needs security."""
     scheme = profile.router.split("/", 1)[0]
     if profile.security is None:
-        if scheme == "tls":
-            raise ProfileError("zenoh.router: a tls/ endpoint needs zenoh.security (a `dogged certs` directory)")
+        if scheme in SECURE_SCHEMES:
+            raise ProfileError(f"zenoh.router: a {scheme}/ endpoint needs zenoh.security (a `dogged certs` directory)")
         return
-    if scheme != "tls":
-        raise ProfileError(f"zenoh.router: with zenoh.security the router listens on tls/..., got {profile.router!r}")
+    if scheme not in SECURE_SCHEMES:
+        raise ProfileError(f"zenoh.router: with zenoh.security the router {'is reached' if profile.join else 'listens'} on "
+                           f"tls/... (or quic/...), got {profile.router!r}")
+    for endpoint in profile.also_listen:
+        if endpoint.split("/", 1)[0] not in SECURE_SCHEMES:
+            raise ProfileError(f"zenoh.also_listen: with zenoh.security every endpoint is tls/ or quic/, got {endpoint!r}")
     missing = [cn for cn in profile.identities() if not (profile.security / f"{cn}.pem").is_file()]
     if not (profile.security / "ca.pem").is_file() or missing:
         raise ProfileError(f"zenoh.security: {profile.security} lacks {', '.join(missing) or 'ca.pem'}; make them "

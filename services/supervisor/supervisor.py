@@ -1,6 +1,8 @@
 """`dogged up`: start a router and every service of a profile, watch, restart, hot-swap, stop.
 
-The supervisor is a Zenoh client of the router it started: readiness is a service's liveliness
+With `--join ENDPOINT` (the profile's share of a deployment whose router runs on another machine)
+it starts no router and everything connects to that one. The supervisor is a Zenoh client of the
+router: readiness is a service's liveliness
 token, `dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<verb>.
 """
 from __future__ import annotations
@@ -16,7 +18,7 @@ from dataclasses import replace
 import zenoh
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, decode, encode, supervisor_key
-from services.bus import Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
+from services.bus import HOST, Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
@@ -26,6 +28,7 @@ ROUTER_TOKEN = "dogged/router"  # declared by services/boxes/router.py
 # the supervisor's verbs and the parameters each takes; anything else is refused with an answer
 VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"}, "down": set()}
 MAX_LOG_LINES = 10_000
+REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
@@ -45,6 +48,7 @@ class Supervisor:
         self.deferred: list = []                   # verbs that arrived during a swap
         self.teaching: dict[str, tuple] = {}       # teacher service -> (its switch, since when)
         self.refused: collections.Counter = collections.Counter()  # verbs answered with an error
+        self.started: set[str] = set()             # "<role>/<name>" of every service this supervisor ran
 
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
@@ -63,6 +67,7 @@ class Supervisor:
         proc = ManagedProcess(spec, command or self.command_for(spec), self.profile.log_dir, self.echo)
         proc.ready_key = InstanceKeys(spec.instance).alive(spec.role, spec.name)
         self.procs[spec.name] = proc
+        self.started.add(f"{spec.role}/{spec.name}")
         proc.start()
         return proc
 
@@ -112,8 +117,9 @@ class Supervisor:
         elif tag == "status":
             try:
                 msg = decode(Status, raw, key)
-                self.status[f"{msg.role}/{msg.name}"] = {"counters": msg.counters, "state": msg.state,
-                                                         "rates": numeric_rates(msg.state.get("rates"))}
+                self.status[f"{msg.role}/{msg.name}"] = {
+                    "counters": msg.counters, "state": msg.state, "rates": numeric_rates(msg.state.get("rates")),
+                    "pid": msg.pid, "host": str(msg.state.get("host", "?"))[:64], "seen": time.monotonic()}
             except ValueError:
                 pass
         else:
@@ -149,12 +155,23 @@ class Supervisor:
         return ControlReply(True, f"stopping profile {self.profile.name}", {})
 
     def ps(self) -> list[dict]:
-        rows = []
+        """Its own services, then every other service whose status came in the last few seconds
+        (a teacher on another machine, another profile's share of the deployment), with its host."""
+        rows, own = [], set()
         for proc in self.procs.values():
             row = proc.describe()
-            status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
-            row["rates"] = status.get("rates", {})
+            key = f"{proc.spec.role}/{proc.spec.name}"
+            own.add(key)
+            status = self.status.get(key, {})
+            row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status))
             rows.append(row)
+        now = time.monotonic()
+        for key, status in sorted(self.status.items()):
+            if key not in own and key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
+                role, name = key.split("/", 1)
+                rows.append({"name": name, "box": role, "pid": status["pid"], "state": "remote", "restarts": 0,
+                             "uptime_s": 0.0, "exit": "", "rates": status["rates"], "host": status["host"],
+                             "ticks": tick_counters(status)})
         return rows
 
     def logs(self, service: str, lines: int) -> ControlReply:
@@ -177,17 +194,20 @@ class Supervisor:
         router = self.secured(ServiceSpec("router", "router", "main", restart="on-failure"), "router.router")
         if prof.security is not None:  # this process's own session, before it opens
             os.environ.update(DOGGED_SECURITY=str(prof.security), DOGGED_IDENTITY=f"supervisor.{prof.name}")
-        self.procs["router"] = ManagedProcess(router, box_command("router", "--listen", prof.router),
-                                              prof.log_dir, self.echo)
-        self.procs["router"].start()
+        if not prof.join:
+            listen = sum((["--listen", e] for e in (prof.router, *prof.also_listen)), [])
+            self.procs["router"] = ManagedProcess(router, box_command("router", *listen), prof.log_dir, self.echo)
+            self.procs["router"].start()
+        else:
+            log.info("joining the router at %s (another machine runs it)", prof.router)
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
-            self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
             held = []  # declarations live as long as these references (a dropped token is undeclared)
             held.append(session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"),
                                                                 history=True))
-            # the router's own token: a restarted router is ready again once it is back (else `ps` said starting)
-            self.procs["router"].ready_key = ROUTER_TOKEN
+            if not prof.join:  # the router's own token: a restarted router is ready again once it is back
+                self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
+                self.procs["router"].ready_key = ROUTER_TOKEN
             held.append(session.liveliness().declare_subscriber(ROUTER_TOKEN, self.inbox.callback("alive"),
                                                                 history=True))
             held.append(session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status")))
@@ -214,9 +234,16 @@ class Supervisor:
             log.info("stopping %s", prof.name)
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
-        self.procs["router"].stop()
+        if "router" in self.procs:
+            self.procs["router"].stop()
         log.info("stopped; no process left")
         return 0
+
+
+def tick_counters(status: dict) -> dict:
+    """A platform's lost and stale ticks, as its status counts them."""
+    counters = status.get("counters", {})
+    return {k: counters[k] for k in ("lost_ticks", "stale_commands") if k in counters}
 
 
 def numeric_rates(rates) -> dict:
