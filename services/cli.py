@@ -42,7 +42,8 @@ def main(argv: list[str] | None = None) -> int:
     up.add_argument("--insecure", action="store_true", help="listen beyond loopback without TLS and access control")
     certs = sub.add_parser("certs", help="a CA and certificates: every identity a profile needs, and people's")
     certs.add_argument("directory")
-    certs.add_argument("--profile", dest="profile_file", default=None, help="make every identity this profile needs")
+    certs.add_argument("--profile", dest="profile_file", action="append", default=None,
+                       help="make every identity this profile needs (repeatable: one CA for several machines)")
     certs.add_argument("--identity", action="append", default=[], metavar="ROLE.NAME",
                        help="one more, e.g. operator.bob or teacher.alice (repeatable)")
     sub.add_parser("down", help="stop a running profile")

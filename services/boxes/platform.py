@@ -24,6 +24,7 @@ from services.platforms import PLATFORMS, make_platform
 
 SUBSCRIPTION_SETTLE_S = 0.3
 ANSWER_WINDOW = 1000  # ticks: a command later than this is counted as never having come
+LATENCY_WINDOW_S = 10.0  # the status's latency percentiles are over the commands of the last 10 s
 
 
 class PlatformLoop:
@@ -43,7 +44,7 @@ class PlatformLoop:
         self.latest_at = -1.0
         self.applied_tick = -1
         self.latencies: list[float] = [] if latency_log else None
-        self.recent_latency = collections.deque(maxlen=2000)
+        self.recent_latency = collections.deque(maxlen=4000)  # (arrival monotonic, latency s)
         self.answered: set[int] = set()       # ticks still in the window that got a command
         self.n_answered, self.unanswered = 0, []  # ticks that left the window (first 1000 misses kept)
         self.n_unanswered = 0
@@ -83,7 +84,7 @@ class PlatformLoop:
         if self.tick - ANSWER_WINDOW < msg.tick <= self.tick:
             self.answered.add(msg.tick)
         latency = time.time() - msg.stamp
-        self.recent_latency.append(latency)
+        self.recent_latency.append((time.monotonic(), latency))
         if self.latencies is not None:
             self.latencies.append(latency)
         if self.latest is None or msg.tick > self.latest.tick:
@@ -117,7 +118,8 @@ class PlatformLoop:
                 "first_unanswered": missing[:1000], "held": self.counts["held"], "rejected": self.rejects.total}
 
     def status(self):
-        lat = np.array(self.recent_latency) * 1e3 if self.recent_latency else np.zeros(1)
+        since = time.monotonic() - LATENCY_WINDOW_S
+        lat = np.array([ms for at, ms in self.recent_latency if at >= since] or [0.0]) * 1e3
         # lost: ticks that left the answer window unanswered
         counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick, lost_ticks=self.n_unanswered)
         state = {"mode": self.mode, "latency_p50_ms": round(float(np.percentile(lat, 50)), 3),

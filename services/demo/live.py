@@ -47,9 +47,12 @@ class BusRecorder:
             key, lambda s: bucket.append((str(s.key_expr), s.payload.to_bytes(), time.time())))
 
     def close(self) -> None:
-        for held in self._held:
-            held.undeclare()
-        self.session.close()
+        try:
+            for held in self._held:
+                held.undeclare()
+            self.session.close()
+        except zenoh.ZError as err:  # a router gone or out of reach: nothing left to close cleanly
+            print(f"closing the session to {self.endpoint}: {err}", file=sys.stderr)
 
     # --- steering ---------------------------------------------------------------------------
     def teach(self, on: bool, teacher: str = "") -> None:

@@ -29,12 +29,14 @@ from services.netlab.lab import Lab
 ROBOT, BRAIN = "robot", "brain"
 TEACHERS = {"alice": ("pan", "pan"), "bob": ("tilt", "tilt")}  # host -> (teacher service, axes)
 PY = sys.executable
+BRAIN_LINK = "quic"  # how the brain joins the robot's router: see benchmarks/hosts.py
+LOSSY_DEADLINE_MS = 60.0  # the arbitrator's wait for proposals over the radio (three crossings)
 
 
 @dataclass(frozen=True)
 class Link:
     """How the brain reaches the robot's router: a Zenoh link scheme, and the radio's impairment."""
-    scheme: str = "tls"          # tls (TCP) or quic (UDP)
+    scheme: str = BRAIN_LINK     # tls (TCP) or quic (UDP)
     loss: float = 0.0            # share of frames dropped, each way
     jitter_ms: float = 0.0       # each frame delayed uniform 0..jitter_ms
 
@@ -89,10 +91,13 @@ args = ["--deadline-ms", "{deadline_ms}"]
 
 class Hosts:
     def __init__(self, run_dir: Path, link: Link = Link(), rate: float = 30.0, deadline_ms: float = 20.0,
-                 net: int = 77):
+                 net: int | None = None, colocated: bool = False):
+        """`colocated`: every process on the robot host instead (the baseline: the same deployment,
+        no network crossed)."""
         self.run_dir, self.link, self.rate, self.deadline_ms = Path(run_dir), link, rate, deadline_ms
         self.lab = Lab([ROBOT, BRAIN, *TEACHERS], radio=ROBOT if link.radio else None, net=net,
                        workdir=str(self.run_dir / "lab"), observer=True)
+        self.colocated = colocated
         self.certs = self.run_dir / "certs"
         self.router = f"tls/{self.lab.address[ROBOT]}:7447"
         self.brain_router = f"{link.scheme}/{self.lab.address[ROBOT]}:7447"
@@ -121,14 +126,13 @@ class Hosts:
         robot.write_text(robot_profile(self.run_dir, self.certs, self.router, self.rate, also))
         brain.write_text(brain_profile(self.run_dir, self.certs, self.deadline_ms))
         people = [f"teacher.{t}" for t, _ in TEACHERS.values()] + [f"operator.{h}" for h in TEACHERS] + ["operator.lab"]
-        for profile in (robot, brain):
-            made = self.dogged(None, "certs", str(self.certs), "--profile", str(profile), *sum(
-                (["--identity", p] for p in people), []))
-            if made.returncode != 0:
-                raise RuntimeError(f"dogged certs: {made.stderr}")
+        made = self.dogged(None, "certs", str(self.certs), "--profile", str(robot), "--profile", str(brain),
+                           *sum((["--identity", p] for p in people), []))
+        if made.returncode != 0:
+            raise RuntimeError(f"dogged certs: {made.stderr}")
         self.lab.run(ROBOT, [PY, "-m", "services.cli", "up", str(robot), "--quiet"], log=self.run_dir / "robot.log",
                      cwd=REPO)
-        self.lab.run(BRAIN, [PY, "-m", "services.cli", "up", str(brain), "--join", self.brain_router, "--quiet"],
+        self.lab.run(self.on(BRAIN), [PY, "-m", "services.cli", "up", str(brain), "--join", self.brain_router, "--quiet"],
                      log=self.run_dir / "brain.log", cwd=REPO)
         for host in TEACHERS:
             self.start_teacher(host)
@@ -139,7 +143,7 @@ class Hosts:
 
     def start_teacher(self, host: str) -> subprocess.Popen:
         name, axes = TEACHERS[host]
-        self.teachers[host] = self.lab.run(host, [
+        self.teachers[host] = self.lab.run(self.on(host), [
             PY, "-m", "services.cli", "run", "demonstrator", "--instance", "main", "--name", name, "--teacher", "mirror",
             "--param", f"axes={axes}", "--connect", self.router, "--security", str(self.certs),
             "--identity", f"teacher.{name}"], log=self.run_dir / f"{host}.log", cwd=REPO)
@@ -156,6 +160,10 @@ class Hosts:
                 pass
         self.lab.close()
 
+    def on(self, host: str) -> str:
+        """The namespace that plays `host`."""
+        return ROBOT if self.colocated else host
+
     # --- a person on a host --------------------------------------------------------------------
     def dogged(self, host: str | None, *args: str, identity: str | None = None,
                timeout: float = 60) -> subprocess.CompletedProcess:
@@ -165,7 +173,7 @@ class Hosts:
             command += ["--connect", self.router, "--security", str(self.certs), "--identity", identity]
         if host is None:
             return subprocess.run(command + list(args), cwd=REPO, capture_output=True, text=True, timeout=timeout)
-        return subprocess.run(self.lab.command(host, command + list(args)), cwd=REPO, capture_output=True, text=True,
+        return subprocess.run(self.lab.command(self.on(host), command + list(args)), cwd=REPO, capture_output=True, text=True,
                               timeout=timeout)
 
     def teach(self, host: str, on: bool) -> subprocess.CompletedProcess:
@@ -325,3 +333,47 @@ def teach_until_learned(hosts: Hosts, step_s: float = 1.0, judge_s: float = 3.0,
         if error < bound:
             return Lesson(taught, error, True, rounds)
     return Lesson(taught, rounds[-1][1] if rounds else float("inf"), False, rounds)
+
+
+@dataclass
+class Window:
+    ticks: int
+    lost: int                   # ticks no command answered (within the platform's answer window)
+    stale: int                  # commands that came after the next tick had gone out
+    latency_p50_ms: float       # tick -> command at the robot: median over 10-s spans
+    latency_p99_ms: float       # the worst 10-s span's 99th percentile
+
+    @property
+    def lost_share(self) -> float:
+        return self.lost / max(self.ticks, 1)
+
+    @property
+    def stale_share(self) -> float:
+        return self.stale / max(self.ticks, 1)
+
+
+def loop_window(hosts: Hosts, spans: int = 1) -> Window:
+    """The loop as the robot saw it for `spans` x 10 s (its status: counters, and latency percentiles
+    over its last 10 s)."""
+    from services.boxes.platform import LATENCY_WINDOW_S
+    first = _newest_status(hosts, hosts.aibo_status_key, time.time())
+    p50s, p99s, last = [], [], first
+    for _ in range(spans):
+        last = _newest_status(hosts, hosts.aibo_status_key, time.time() + LATENCY_WINDOW_S)
+        p50s.append(last.state["latency_p50_ms"])
+        p99s.append(last.state["latency_p99_ms"])
+
+    def delta(counter):
+        return int(last.counters.get(counter, 0)) - int(first.counters.get(counter, 0))
+    return Window(delta("tick"), delta("lost_ticks"), delta("stale_commands"), float(np.median(p50s)), max(p99s))
+
+
+def _newest_status(hosts: Hosts, key: str, after: float, timeout: float = 15.0) -> Status:
+    """The first status on `key` that arrives after time.time() `after`."""
+    end = time.monotonic() + max(0.0, after - time.time()) + timeout
+    while time.monotonic() < end:
+        later = hosts.statuses(key, after)
+        if later:
+            return later[0][1]
+        time.sleep(0.05)
+    raise TimeoutError(f"no status on {key} after {after}")

@@ -5,7 +5,7 @@
         lab.cut("alice"); lab.heal("alice")          # a partition: frames vanish, links stay up
         lab.impair("robot", loss=0.05, jitter_ms=20)  # the robot's radio link
 
-Hosts get 10.<net>.0.<n>/24 on `eth0` and their own loopback. The switch is a bridge in a namespace
+Hosts get 10.<net>.0.<n>/24 on `eth0` (net: the first from 77 this machine routes nowhere) and their own loopback. The switch is a bridge in a namespace
 of its own; a cut takes the host's port off the bridge (the cable stays plugged in and up), so nothing reaches either
 side and neither side is told, as when a machine walks out of range. The host named `radio` is
 cabled through services/netlab/air.py instead, in a namespace between it and the switch, so its
@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -48,16 +49,49 @@ def sweep_stale_labs() -> list[str]:
              subprocess.run(["ip", "-o", "link"], capture_output=True, text=True).stdout.splitlines()]
     swept = []
     for name in names + links:
-        match = re.fullmatch(r"dl(\d+)(-[a-z0-9]+|o)", name)
+        match = re.fullmatch(r"dl(\d+)n\d+(-[a-z0-9]+|o)", name)
         if match and not _alive(int(match.group(1))):
-            kind = ["netns", "del"] if match.group(2) != "o" else ["link", "del"]
-            subprocess.run(["ip", *kind, name], capture_output=True)
+            if match.group(2) == "o":
+                subprocess.run(["ip", "link", "del", name], capture_output=True)
+            else:
+                end_namespaces([name])
             swept.append(name)
     return swept
 
 
+def end_namespaces(names) -> None:
+    """Stop every process still inside the namespaces (whoever started them), then delete them."""
+    names = list(names)
+    pids = {int(p) for name in names for p in
+            subprocess.run(["ip", "netns", "pids", name], capture_output=True, text=True).stdout.split()}
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        for pid in pids:
+            try:
+                os.kill(pid, sig)
+            except ProcessLookupError:
+                pass
+        end = time.monotonic() + 5
+        while time.monotonic() < end and any(_alive(pid) for pid in pids):
+            time.sleep(0.05)
+    for name in names:
+        subprocess.run(["ip", "netns", "del", name], capture_output=True)
+
+
+def free_net(first: int = 77) -> int:
+    """A 10.<net>.0.0/24 this machine routes nowhere yet (another lab's observer would claim one)."""
+    routes = subprocess.run(["ip", "-4", "route"], capture_output=True, text=True).stdout
+    for net in list(range(first, 255)) + list(range(1, first)):
+        if f"10.{net}." not in routes:
+            return net
+    raise RuntimeError("every 10.<n>.0.0/24 is routed already")
+
+
 def _alive(pid: int) -> bool:
-    return Path(f"/proc/{pid}").exists()
+    """Running (not gone, not a zombie waiting to be reaped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
 
 
 def _ip(*args: str, ns: str | None = None) -> None:
@@ -68,11 +102,14 @@ def _ip(*args: str, ns: str | None = None) -> None:
 
 
 class Lab:
-    def __init__(self, hosts: list[str], radio: str | None = None, net: int = 77, workdir: str | None = None,
+    _made_here = 0
+    def __init__(self, hosts: list[str], radio: str | None = None, net: int | None = None, workdir: str | None = None,
                  observer: bool = False):
         if radio is not None and radio not in hosts:
             raise ValueError(f"radio host {radio!r} is not one of {hosts}")
-        self.tag = f"dl{os.getpid()}"  # sweep_stale_labs() reads the pid back
+        Lab._made_here += 1  # sweep_stale_labs() reads the pid back; the count tells this process's labs apart
+        self.tag = f"dl{os.getpid()}n{Lab._made_here}"
+        net = free_net() if net is None else net
         self.hosts, self.radio, self.net = list(hosts), radio, net
         self.address = {h: f"10.{net}.0.{i + 1}" for i, h in enumerate(hosts)}
         self.dir = Path(workdir or tempfile.mkdtemp(prefix="netlab-"))
@@ -176,8 +213,7 @@ class Lab:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
-        for name in reversed(self._made):
-            subprocess.run(["ip", "netns", "del", name], capture_output=True)
+        end_namespaces(reversed(self._made))
         self._made.clear()
         if self.observer:  # a namespace outlives its name while any socket in it lingers; so would this cable
             subprocess.run(["ip", "link", "del", f"{self.tag}o"], capture_output=True)

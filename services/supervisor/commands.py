@@ -38,12 +38,12 @@ def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False
     return Supervisor(profile, echo).run()
 
 
-def certs(directory: str, profile_file: str | None, identities: list[str]) -> int:
-    """`dogged certs DIR [--profile P] [--identity ROLE.NAME ...]`: the CA (made once) and a key and
+def certs(directory: str, profile_files: list[str] | None, identities: list[str]) -> int:
+    """`dogged certs DIR [--profile P ...] [--identity ROLE.NAME ...]`: the CA (made once) and a key and
     certificate per identity; hand a person's pair (and ca.pem, never ca.key) to that person."""
     from services.security import make_certs
     wanted = list(identities)
-    if profile_file:
+    for profile_file in reversed(profile_files or []):
         try:  # not yet the certificates it lacks: they are what this makes
             profile = load_profile(profile_file, check_security=False)
         except ProfileError as err:
