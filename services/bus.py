@@ -95,6 +95,10 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
     conf.insert_json5("transport/link/tx/queue/congestion_control/drop/wait_before_drop", "20000")
     if mode == "router":
         conf.insert_json5("listen/endpoints", json.dumps(listen or [DEFAULT_ROUTER]))
+        if connect:  # another machine's router: keep trying it, and again after a partition
+            conf.insert_json5("connect/endpoints", json.dumps(connect))
+            conf.insert_json5("connect/timeout_ms", "-1")
+            conf.insert_json5("connect/exit_on_failure", "false")
     else:
         connect = connect or [os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)]
         conf.insert_json5("connect/endpoints", json.dumps(connect))

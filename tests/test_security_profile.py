@@ -75,6 +75,22 @@ def test_up_refuses_a_router_beyond_loopback_without_security(tmp_path):
     assert out.returncode == 2 and "beyond this machine" in out.stderr and "--insecure" in out.stderr
 
 
+def test_up_refuses_to_join_another_machine_in_the_clear(tmp_path):
+    profile = write_profile(tmp_path, f"tcp/127.0.0.1:{free_port()}")
+    out = cli("up", str(profile), "--join", "tcp/192.0.2.7:7447", "--quiet", timeout=30)
+    assert out.returncode == 2 and "link to tcp/192.0.2.7:7447 in the clear" in out.stderr, out.stderr
+
+
+def test_a_joining_profile_runs_its_own_router_and_links_it_securely(tmp_path):
+    joined = load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447"), join="quic/192.0.2.7:7447",
+                          check_security=False)
+    assert joined.upstream == "quic/192.0.2.7:7447" and joined.router == "tls/127.0.0.1:7447"
+    assert "router.router" in joined.identities()
+    with pytest.raises(ProfileError, match=r"--join: with zenoh.security the other machine's router is reached on "
+                                           r"tls/.*'tcp/192.0.2.7:7447'"):
+        load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447", tmp_path / "certs"), join="tcp/192.0.2.7:7447")
+
+
 def test_security_settings_are_checked_with_errors_that_name_the_field(tmp_path):
     with pytest.raises(ProfileError, match=r"zenoh.router: a tls/ endpoint needs zenoh.security"):
         load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447"))

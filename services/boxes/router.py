@@ -9,13 +9,13 @@ import zenoh
 from services.bus import DEFAULT_ROUTER, StopFlag, setup_logging, zenoh_config
 
 
-def main(listen: list[str]) -> int:
+def main(listen: list[str], connect: list[str] | None = None, token: str = "dogged/router") -> int:
     log = setup_logging("router", "router")
     stop = StopFlag()
-    with zenoh.open(zenoh_config(listen=listen, mode="router")) as session:
+    with zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router")) as session:
         held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.liveliness().declare_token("dogged/router"))  # the supervisor's ROUTER_TOKEN
-        log.info("routing on %s", ", ".join(listen))
+        held.append(session.liveliness().declare_token(token))  # its supervisor's router_token()
+        log.info("routing on %s%s", ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
         while not stop:
             time.sleep(0.2)
     return 0
@@ -24,7 +24,11 @@ def main(listen: list[str]) -> int:
 def cli(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="dogged run router", description=__doc__.splitlines()[0])
     parser.add_argument("--listen", action="append", default=None, help=f"endpoint(s), default {DEFAULT_ROUTER}")
+    parser.add_argument("--connect", action="append", default=None,
+                        help="another machine's router to link to (kept trying; one deployment over both)")
+    parser.add_argument("--token", default="dogged/router",
+                        help="the liveliness token that says this router is up (its supervisor's)")
     parser.add_argument("--instance", help=argparse.SUPPRESS)
     parser.add_argument("--name", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    return main(args.listen or [DEFAULT_ROUTER])
+    return main(args.listen or [DEFAULT_ROUTER], args.connect, args.token)

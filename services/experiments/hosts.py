@@ -2,7 +2,8 @@
 namespaces on one switch (services/netlab/lab.py), every link mutual TLS with access control.
 
 - robot: the router, the Aibo at 30 Hz in real time, the handler (`dogged up robot.toml`);
-- brain: the learner and the arbitrator (`dogged up brain.toml --join <robot's router>`);
+- brain: the learner and the arbitrator (`dogged up brain.toml --join <robot's router>`), peers of
+  the brain's own router, which links to the robot's;
 - alice, bob: one teacher each, joined with one command (`dogged run demonstrator ... --connect
   <robot's router> --security <certs> --identity teacher.<name>`), switched by their person with
   `dogged teach` from their own host.
@@ -77,6 +78,7 @@ log_dir = "{run_dir}/brain/logs"
 state_dir = ""
 
 [zenoh]
+router = "tls/127.0.0.1:7447"
 security = "{certs}"
 
 [services.learner]

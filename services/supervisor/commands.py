@@ -28,10 +28,11 @@ def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False
     except ProfileError as err:
         print(f"dogged up: {err}", file=sys.stderr)
         return 2
-    if profile.security is None and not is_loopback(profile.router) and not insecure:
-        where = (f"the services would reach the router at {profile.router} in the clear, and anyone who reaches it "
-                 f"could drive the robot" if join else f"the router would listen on {profile.router}, beyond this "
-                 f"machine, and anyone who reaches it could drive the robot")
+    beyond = [e for e in (profile.router, *profile.also_listen, profile.upstream) if e and not is_loopback(e)]
+    if profile.security is None and beyond and not insecure:
+        where = (f"the router would link to {profile.upstream} in the clear, and anyone who reaches it could drive "
+                 f"the robot" if profile.upstream in beyond else f"the router would listen on {beyond[0]}, beyond "
+                 f"this machine, and anyone who reaches it could drive the robot")
         print(f"dogged up: {where}: set zenoh.security to a `dogged certs` directory (mutual TLS and access "
               f"control), or say --insecure", file=sys.stderr)
         return 2

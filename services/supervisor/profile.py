@@ -49,8 +49,9 @@ class Profile:
     # where learners keep every pair they learned (their --state-dir unless they name one), so a restarted
     # learner comes back knowing what it was taught; None: learners without a --state-dir forget
     state_dir: Path | None = None
-    # the router runs on another machine (`dogged up --join ENDPOINT`): start none, connect there
-    join: bool = False
+    # another machine's router (`dogged up --join ENDPOINT`): this profile's router links to it, so the
+    # services here talk among themselves on this machine and only what the other side needs crosses
+    upstream: str | None = None
     also_listen: tuple[str, ...] = ()  # more endpoints the router listens on (a quic/ one for a radio link)
 
     def service_args(self, spec: ServiceSpec) -> tuple[str, ...]:
@@ -66,9 +67,9 @@ class Profile:
         return f"{BOX_ROLES[spec.box]}.{name}"
 
     def identities(self) -> list[str]:
-        """Every certificate the profile needs: the router's (unless it joins another's), the supervisor's,
+        """Every certificate the profile needs: the router's, the supervisor's,
         each service's."""
-        return ([] if self.join else ["router.router"]) + [f"supervisor.{self.name}"] + \
+        return ["router.router", f"supervisor.{self.name}"] + \
             [self.identity(s) for s in self.services]
 
 
@@ -120,7 +121,8 @@ def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
 
 def load_profile(path: str | Path, router: str | None = None, check_security: bool = True,
                  join: str | None = None) -> Profile:
-    """A profile from TOML; `join`: the endpoint of a router another machine runs (none is started)."""
+    """A profile from TOML; `join`: the endpoint of a router another machine runs, which this profile's
+    router links to."""
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
@@ -141,7 +143,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     log_dir = Path(_get(head, "log_dir", str, "profile", f"runs/{name}/logs"))
     state_dir = _get(head, "state_dir", str, "profile", str(log_dir.parent / "state"))  # "": no state kept
     low_latency = _get(head, "low_latency", bool, "profile", False)
-    router = join or router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
+    router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
     if not isinstance(services, dict) or not services:
         raise ProfileError("services: at least one [services.<name>] table is required")
@@ -161,7 +163,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     if not all(isinstance(e, str) and "/" in e for e in also_listen):
         raise ProfileError(f"zenoh.also_listen: expected a list of endpoints like quic/10.0.0.1:7447, got {also_listen!r}")
     profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None,
-                      Path(state_dir) if state_dir else None, join=join is not None, also_listen=tuple(also_listen))
+                      Path(state_dir) if state_dir else None, upstream=join, also_listen=tuple(also_listen))
     if check_security:
         _check_security(profile)
     return profile
@@ -175,8 +177,11 @@ def _check_security(profile: Profile) -> None:
             raise ProfileError(f"zenoh.router: a {scheme}/ endpoint needs zenoh.security (a `dogged certs` directory)")
         return
     if scheme not in SECURE_SCHEMES:
-        raise ProfileError(f"zenoh.router: with zenoh.security the router {'is reached' if profile.join else 'listens'} on "
-                           f"tls/... (or quic/...), got {profile.router!r}")
+        raise ProfileError(f"zenoh.router: with zenoh.security the router listens on tls/... (or quic/...), got "
+                           f"{profile.router!r}")
+    if profile.upstream is not None and profile.upstream.split("/", 1)[0] not in SECURE_SCHEMES:
+        raise ProfileError(f"--join: with zenoh.security the other machine's router is reached on tls/... (or "
+                           f"quic/...), got {profile.upstream!r}")
     for endpoint in profile.also_listen:
         if endpoint.split("/", 1)[0] not in SECURE_SCHEMES:
             raise ProfileError(f"zenoh.also_listen: with zenoh.security every endpoint is tls/ or quic/, got {endpoint!r}")

@@ -1,7 +1,7 @@
 """`dogged up`: start a router and every service of a profile, watch, restart, hot-swap, stop.
 
 With `--join ENDPOINT` (the profile's share of a deployment whose router runs on another machine)
-it starts no router and everything connects to that one. The supervisor is a Zenoh client of the
+its router links to that one: the services here talk among themselves on this machine. The supervisor is a Zenoh client of the
 router: readiness is a service's liveliness
 token, `dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<verb>.
 """
@@ -24,7 +24,10 @@ from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 
 log = logging.getLogger("dogged.supervisor")
-ROUTER_TOKEN = "dogged/router"  # declared by services/boxes/router.py
+def router_token(profile: str) -> str:
+    """The liveliness token a profile's router declares (services/boxes/router.py): one per profile, as
+    linked routers of several machines share one bus."""
+    return f"dogged/router/{profile}"
 # the supervisor's verbs and the parameters each takes; anything else is refused with an answer
 VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"}, "down": set()}
 MAX_LOG_LINES = 10_000
@@ -194,21 +197,21 @@ class Supervisor:
         router = self.secured(ServiceSpec("router", "router", "main", restart="on-failure"), "router.router")
         if prof.security is not None:  # this process's own session, before it opens
             os.environ.update(DOGGED_SECURITY=str(prof.security), DOGGED_IDENTITY=f"supervisor.{prof.name}")
-        if not prof.join:
-            listen = sum((["--listen", e] for e in (prof.router, *prof.also_listen)), [])
-            self.procs["router"] = ManagedProcess(router, box_command("router", *listen), prof.log_dir, self.echo)
-            self.procs["router"].start()
-        else:
-            log.info("joining the router at %s (another machine runs it)", prof.router)
+        listen = sum((["--listen", e] for e in (prof.router, *prof.also_listen)), ["--token", router_token(prof.name)])
+        if prof.upstream:
+            listen += ["--connect", prof.upstream]
+            log.info("linking to the router at %s (another machine runs it)", prof.upstream)
+        self.procs["router"] = ManagedProcess(router, box_command("router", *listen), prof.log_dir, self.echo)
+        self.procs["router"].start()
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
             held = []  # declarations live as long as these references (a dropped token is undeclared)
             held.append(session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"),
                                                                 history=True))
-            if not prof.join:  # the router's own token: a restarted router is ready again once it is back
-                self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
-                self.procs["router"].ready_key = ROUTER_TOKEN
-            held.append(session.liveliness().declare_subscriber(ROUTER_TOKEN, self.inbox.callback("alive"),
+            # the router's own token: a restarted router is ready again once it is back
+            self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
+            self.procs["router"].ready_key = router_token(prof.name)
+            held.append(session.liveliness().declare_subscriber(router_token(prof.name), self.inbox.callback("alive"),
                                                                 history=True))
             held.append(session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status")))
             held.append(session.declare_queryable(supervisor_key(prof.name, "*"),
