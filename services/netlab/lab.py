@@ -5,12 +5,14 @@
         lab.cut("alice"); lab.heal("alice")          # a partition: frames vanish, links stay up
         lab.impair("robot", loss=0.05, jitter_ms=20)  # the robot's radio link
 
-Hosts get 10.<net>.0.<n>/24 on `eth0` (net: the first from 77 this machine routes nowhere) and their own loopback. The switch is a bridge in a namespace
-of its own; a cut takes the host's port off the bridge (the cable stays plugged in and up), so nothing reaches either
-side and neither side is told, as when a machine walks out of range. The host named `radio` is
-cabled through services/netlab/air.py instead, in a namespace between it and the switch, so its
-link can drop and delay frames. Needs root and iproute2 (`ip`); `available()` says whether this
-machine can.
+Hosts get 10.<net>.0.<n>/24 on `eth0` (net: the first from 77 this machine routes nowhere) and
+their own loopback. The switch is a bridge in a namespace of its own; a cut takes the host's port
+off the bridge (the cable stays plugged in and up), so nothing reaches either side and neither side
+is told, as when a machine walks out of range. The host named `radio` is cabled through
+services/netlab/air.py instead, in a namespace between it and the switch, so its link can drop and
+delay frames. With `observer`, this process's own namespace is on the switch too, at
+10.<net>.0.254, to watch the hosts as one more machine would. Closing ends every process left in
+the lab's namespaces. Needs root and iproute2 (`ip`); `available()` says whether this machine can.
 """
 from __future__ import annotations
 
