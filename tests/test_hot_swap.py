@@ -45,20 +45,28 @@ def test_swap_learners_during_200hz_run(tmp_path):
         cross = dogged_ok("swap", "learner", "knn", endpoint=endpoint, timeout=120)
         assert cross.returncode == 0, cross.stdout + cross.stderr
         assert "learner-s1 (knn) serves in place of learner" in cross.stdout
-        # the same class: the new learner restores the old one's snapshot
+        # the same class with another k: the new learner is the one asked for (k=3, not the snapshot's
+        # k=5), taught the old one's history
         same = dogged_ok("swap", "learner", "knn:k=3", endpoint=endpoint, timeout=120)
         assert same.returncode == 0, same.stdout + same.stderr
-        assert set(ps(endpoint)) == {"router", "platform", "teacher", "learner-s2", "arbitrator"}
+        # the same class and hyper-parameters: the old one's snapshot is restored
+        again = dogged_ok("swap", "learner", "knn:k=3", endpoint=endpoint, timeout=120)
+        assert again.returncode == 0, again.stdout + again.stderr
+        assert set(ps(endpoint)) == {"router", "platform", "teacher", "learner-s3", "arbitrator"}
         wait(lambda: summary.exists(), 60, "the platform to finish its ticks")
         time.sleep(2.5)  # two status periods: the final counters are out
         counts = json.loads(summary.read_text())
         assert counts["ticks"] == TICKS
         print(f"unanswered ticks before the loop was up (tick {loop_up_tick}): {counts['first_unanswered']}")
         assert [t for t in counts["first_unanswered"] if t >= loop_up_tick] == [], counts
-        assert probe.counter("arbitrator/arbitrator", "swaps") == 2
+        assert probe.counter("arbitrator/arbitrator", "swaps") == 3
         published = probe.state("arbitrator/arbitrator", "seq")
         assert published == probe.counter("arbitrator/arbitrator", "train_pairs") > 0.9 * TICKS
-        serving = "learner/learner-s2"
+        asked = "learner/learner-s2"  # k=3 asked of a k=5 knn: built as asked, taught the history
+        assert probe.state(asked, "params")["k"] == 3, probe.state(asked, "params")
+        assert probe.counter(asked, "warmed_by_snapshot", 0) == 0
+        serving = "learner/learner-s3"
+        assert probe.state(serving, "params")["k"] == 3 and probe.counter(serving, "warmed_by_snapshot") == 1
         assert probe.counter(serving, "warmed") > 300
         assert probe.counter(serving, "seq") == published
         assert probe.counter(serving, "pairs") == published, "every pair reaches the serving learner"

@@ -137,10 +137,16 @@ class LearnerNode:
                 restored = type(self.model).restore(snap.blob)
             except SnapshotError as err:  # never run: learn the history instead
                 self.rejects(self.keys.snapshot(old), err)
+        if restored is not None and not same_params(restored, self.model):
+            # the same class asked with other hyper-parameters: what was asked for learns the history
+            self.log.info("learner %s's snapshot has %s; asked for %s: learning its history instead", old,
+                          restored.get_params(), self.model.get_params())
+            restored = None
         if restored is not None:
             self.model = restored
             self.model.serve_live()
             how = "snapshot"
+            self.counts["warmed_by_snapshot"] = 1
         elif np.all(history.mask == 1):
             self.model.learn_many(history.x, history.y)
             how = f"training on {len(history.x)} pairs"
@@ -187,7 +193,14 @@ class LearnerNode:
 
     def status(self):
         counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs))
-        return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size)}
+        return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size),
+                          "params": {k: v if isinstance(v, (int, float, str, bool)) else repr(v)
+                                     for k, v in self.model.get_params().items()}}
+
+
+def same_params(a, b) -> bool:
+    """Whether two learners were made with the same hyper-parameters (as their reprs say them)."""
+    return {k: repr(v) for k, v in a.get_params().items()} == {k: repr(v) for k, v in b.get_params().items()}
 
 
 PLAUSIBLE_GAP = 65536  # the arbitrator's recent pairs: a longer jump in seq must be confirmed by it
