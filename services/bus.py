@@ -24,8 +24,8 @@ from bus_schema import SchemaError, Status, encode
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 LOCAL_LISTEN = "tcp/127.0.0.1:0"
-DUMP_STACKS = signal.SIGUSR1
-HOST = os.environ.get("DOGGED_HOST") or socket.gethostname()  # the machine a service's status says it runs on  # a service asked this prints its threads' stacks to its log
+DUMP_STACKS = signal.SIGUSR1  # a service asked this prints its threads' stacks to its log
+HOST = os.environ.get("DOGGED_HOST") or socket.gethostname()  # the machine a service's status says it runs on
 
 
 def add_bus_args(parser: argparse.ArgumentParser) -> None:
@@ -72,10 +72,10 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
                  identity: str | None = None) -> zenoh.Config:
     """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With `security`
     (a `dogged certs` directory; default $DOGGED_SECURITY) and `identity` (this process's certificate;
-    default $DOGGED_IDENTITY),
-    mutual TLS, and the router and every peer enforcing who may say what (services/security.py): peers
-    link directly, so each checks what reaches it. A service keeps trying to reach the router; with
-    `give_up_after` (seconds) opening fails instead."""
+    default $DOGGED_IDENTITY), mutual TLS, and the router and every peer enforcing who may say what
+    (services/security.py): peers link directly, so each checks what reaches it. A service (or a router
+    linked to another machine's) keeps trying what it connects to; with `give_up_after` (seconds)
+    opening fails instead."""
     secured = security or os.environ.get("DOGGED_SECURITY")
     identity = identity or os.environ.get("DOGGED_IDENTITY")
     mode = resolved_mode(mode, connect)
@@ -93,18 +93,15 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
     # a latest-only message waits up to 20 ms for room before it is dropped (default 1 ms): on a
     # busy 2-core machine a sender thread can be descheduled that long without any real congestion
     conf.insert_json5("transport/link/tx/queue/congestion_control/drop/wait_before_drop", "20000")
-    if mode == "router":
+    if mode == "router":  # it connects only to another machine's router, if told to
         conf.insert_json5("listen/endpoints", json.dumps(listen or [DEFAULT_ROUTER]))
-        if connect:  # another machine's router: keep trying it, and again after a partition
-            conf.insert_json5("connect/endpoints", json.dumps(connect))
-            conf.insert_json5("connect/timeout_ms", "-1")
-            conf.insert_json5("connect/exit_on_failure", "false")
     else:
         connect = connect or [os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)]
-        conf.insert_json5("connect/endpoints", json.dumps(connect))
         if mode == "peer":
             conf.insert_json5("listen/endpoints", json.dumps(listen or [LOCAL_LISTEN]))
-        if give_up_after is None:  # a service: keep trying the router while it starts
+    if connect:
+        conf.insert_json5("connect/endpoints", json.dumps(connect))
+        if give_up_after is None:  # a service: keep trying the router while it starts, and after a partition
             conf.insert_json5("connect/timeout_ms", "-1")
             conf.insert_json5("connect/exit_on_failure", "false")
         else:  # a person's command: say so rather than wait for ever

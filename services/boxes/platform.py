@@ -24,7 +24,7 @@ from services.platforms import PLATFORMS, make_platform
 
 SUBSCRIPTION_SETTLE_S = 0.3
 ANSWER_WINDOW = 1000  # ticks: a command later than this is counted as never having come
-LATENCY_WINDOW_S = 10.0  # the status's latency percentiles are over the commands of the last 10 s
+LATENCY_WINDOW_S = 10.0  # the status's latency percentiles: the commands of the last 10 s (at most 4000)
 
 
 class PlatformLoop:

@@ -14,6 +14,8 @@ robot's cable runs through services/netlab/air.py, which drops and delays frames
 """
 from __future__ import annotations
 
+import bisect
+import json
 import subprocess
 import sys
 import time
@@ -22,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bus_schema import Status
+from bus_schema import Command, Input, Status
 from services.demo.live import REPO, BusRecorder, decoded
 from services.experiments.wiring import wired_learner
 from services.netlab.lab import Lab
@@ -47,7 +49,6 @@ class Link:
 
 
 def robot_profile(run_dir: Path, certs: Path, router: str, rate: float, listen_also: list[str]) -> str:
-    also = "".join(f', "{e}"' for e in listen_also)
     return f"""[profile]
 name = "robot"
 log_dir = "{run_dir}/robot/logs"
@@ -55,7 +56,7 @@ state_dir = ""
 
 [zenoh]
 router = "{router}"
-also_listen = [{also.lstrip(', ')}]
+also_listen = {json.dumps(listen_also)}
 security = "{certs}"
 
 [services.aibo]
@@ -70,8 +71,7 @@ args = ["--distractors", "mirroring"]
 
 def brain_profile(run_dir: Path, certs: Path, deadline_ms: float) -> str:
     learner, params = wired_learner("mirroring")
-    learner_args = ", ".join(f'"{a}"' for a in ["--learner", learner, *sum((["--param", f"{k}={v}"]
-                                                                            for k, v in params.items()), [])])
+    learner_args = ["--learner", learner] + [a for k, v in params.items() for a in ("--param", f"{k}={v}")]
     return f"""[profile]
 name = "brain"
 log_dir = "{run_dir}/brain/logs"
@@ -83,7 +83,7 @@ security = "{certs}"
 
 [services.learner]
 box = "learner"
-args = [{learner_args}]
+args = {json.dumps(learner_args)}
 
 [services.arbitrator]
 box = "arbitrator"
@@ -200,42 +200,49 @@ class Hosts:
         raise TimeoutError(f"not ready after {timeout} s: {self.ps(ROBOT)}")
 
     def ps(self, host: str, profile: str = "robot") -> list[dict]:
-        import json
         out = self.dogged(host, "--profile", profile, "ps", "--json", identity="operator.lab", timeout=30)
         return json.loads(out.stdout)["services"] if out.returncode == 0 else []
 
     # --- reading the record --------------------------------------------------------------------
+    # (records are in arrival order; what does not decode is no message)
+    def received(self, key: str, cls, after: float) -> list[tuple[float, object]]:
+        """(arrival time.time(), message) of every `cls` on `key` that reached this observer after `after`."""
+        records = self.bus.recorded[key]
+        first = bisect.bisect_right(records, after, key=lambda record: record[2])
+        return [(at, m) for k, raw, at in records[first:] for m in [decoded(cls, k, raw)] if m is not None]
+
+    def first_received(self, key: str, cls, after: float, timeout: float, wanted=lambda msg: True):
+        """The first (arrival, message) of `cls` on `key` after time.time() `after` that is `wanted`,
+        waiting until `timeout` s past `after` (or past now); None if none came."""
+        records = self.bus.recorded[key]
+        i = bisect.bisect_right(records, after, key=lambda record: record[2])
+        end = time.monotonic() + max(0.0, after - time.time()) + timeout
+        while True:
+            for k, raw, at in records[i:]:  # only what came since the last look (`after` may be ahead)
+                i += 1
+                msg = decoded(cls, k, raw) if at > after else None
+                if msg is not None and wanted(msg):
+                    return at, msg
+            if time.monotonic() >= end:
+                return None
+            time.sleep(0.02)
+
     def commands_since(self, t: float) -> list:
         """(arrival time, Command) of every command that reached this observer after time.time() `t`."""
-        from bus_schema import Command
-        key = self.bus.keys.command
-        return [(at, c) for k, raw, at in list(self.bus.recorded[key]) if at > t
-                for c in [decoded(Command, k, raw)] if c is not None]
-
-    def statuses(self, key: str, since: float) -> list[tuple[float, Status]]:
-        return [(at, m) for k, raw, at in list(self.bus.recorded[key]) if at > since
-                for m in [decoded(Status, k, raw)] if m is not None]
+        return self.received(self.bus.keys.command, Command, t)
 
     def waited_for_change(self, member: str, waited: bool, since: float, timeout: float) -> float | None:
         """Seconds from `since` until the arbitrator said it (stopped) waiting for `member` (teacher/pan)."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            for at, status in self.statuses(self.status_key, since):
-                if (member not in status.state.get("not_waited_for", [])) == waited:
-                    return at - since
-            time.sleep(0.02)
-        return None
+        found = self.first_received(self.status_key, Status, since, timeout,
+                                    lambda s: (member not in s.state.get("not_waited_for", [])) == waited)
+        return None if found is None else found[0] - since
 
     def first_command_from(self, source: str, since: float, timeout: float) -> float | None:
         """Seconds from `since` until a command chosen from `source` (teacher/pan; "": any) reached
         this observer."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            for at, command in self.commands_since(since):
-                if command.source == source or not source:
-                    return at - since
-            time.sleep(0.02)
-        return None
+        found = self.first_received(self.bus.keys.command, Command, since, timeout,
+                                    lambda c: not source or c.source == source)
+        return None if found is None else found[0] - since
 
 
 # --- the issue's scenarios, shared by tests/test_hosts.py and benchmarks/hosts.py ---------------
@@ -285,9 +292,8 @@ def brain_partition(hosts: Hosts, cut_s: float = 3.0) -> BrainPartition:
     hosts.lab.cut(BRAIN)
     time.sleep(cut_s)
     commands = [c for at, c in hosts.commands_since(cut + 1.0)]
-    inputs = [x for k, raw, at in list(hosts.bus.recorded[hosts.bus.keys.input]) if at > cut + 1.0
-              for x in [_input_x(k, raw)] if x is not None]
-    head = np.array([x[[HEAD_PAN, HEAD_TILT]] for x in inputs]) if inputs else np.zeros((1, 2))
+    inputs = hosts.received(hosts.bus.keys.input, Input, cut + 1.0)
+    head = np.array([m.x[[HEAD_PAN, HEAD_TILT]] for _, m in inputs]) if inputs else np.zeros((1, 2))
     time.sleep(1.2)  # the platform says its status each second
     held_after = _latest_counter(hosts, hosts.aibo_status_key, "held")
     healed = time.time()
@@ -297,14 +303,11 @@ def brain_partition(hosts: Hosts, cut_s: float = 3.0) -> BrainPartition:
 
 
 def _latest_counter(hosts: Hosts, key: str, counter: str) -> int:
-    statuses = hosts.statuses(key, 0.0)
-    return int(statuses[-1][1].counters.get(counter, 0)) if statuses else 0
-
-
-def _input_x(key: str, raw: bytes):
-    from bus_schema import Input
-    msg = decoded(Input, key, raw)
-    return None if msg is None else msg.x
+    for k, raw, _ in reversed(hosts.bus.recorded[key]):
+        status = decoded(Status, k, raw)
+        if status is not None:
+            return int(status.counters.get(counter, 0))
+    return 0
 
 
 @dataclass
@@ -372,10 +375,7 @@ def loop_window(hosts: Hosts, spans: int = 1) -> Window:
 
 def _newest_status(hosts: Hosts, key: str, after: float, timeout: float = 15.0) -> Status:
     """The first status on `key` that arrives after time.time() `after`."""
-    end = time.monotonic() + max(0.0, after - time.time()) + timeout
-    while time.monotonic() < end:
-        later = hosts.statuses(key, after)
-        if later:
-            return later[0][1]
-        time.sleep(0.05)
-    raise TimeoutError(f"no status on {key} after {after}")
+    found = hosts.first_received(key, Status, after, timeout)
+    if found is None:
+        raise TimeoutError(f"no status on {key} after {after}")
+    return found[1]

@@ -43,13 +43,12 @@ def available() -> str:
     return ""
 
 
-def sweep_stale_labs() -> list[str]:
+def sweep_stale_labs() -> None:
     """Delete what labs of processes no longer alive left behind (namespaces dl<pid>-*, cables dl<pid>o):
     a lab killed before its close() would otherwise keep its addresses, and the next lab's would clash."""
     names = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout.split()
     links = [line.split(":")[1].strip().split("@")[0] for line in
              subprocess.run(["ip", "-o", "link"], capture_output=True, text=True).stdout.splitlines()]
-    swept = []
     for name in names + links:
         match = re.fullmatch(r"dl(\d+)n\d+(-[a-z0-9]+|o)", name)
         if match and not _alive(int(match.group(1))):
@@ -57,8 +56,6 @@ def sweep_stale_labs() -> list[str]:
                 subprocess.run(["ip", "link", "del", name], capture_output=True)
             else:
                 end_namespaces([name])
-            swept.append(name)
-    return swept
 
 
 def end_namespaces(names) -> None:
@@ -105,6 +102,7 @@ def _ip(*args: str, ns: str | None = None) -> None:
 
 class Lab:
     _made_here = 0
+
     def __init__(self, hosts: list[str], radio: str | None = None, net: int | None = None, workdir: str | None = None,
                  observer: bool = False):
         if radio is not None and radio not in hosts:
@@ -170,7 +168,7 @@ class Lab:
                 self._attach(self.port(host))
         if self.radio:
             self.impair(self.radio)
-        if self.observer:  # deleting the switch's namespace takes this cable with it
+        if self.observer:  # this namespace's end of the cable goes in close()
             _ip("link", "add", f"{self.tag}o", "type", "veth", "peer", "name", "po", "netns", self.switch)
             _ip("addr", "add", f"10.{self.net}.0.254/24", "dev", f"{self.tag}o")
             _ip("link", "set", f"{self.tag}o", "up")
@@ -225,19 +223,12 @@ class Lab:
         """`argv` as run on `host`: inside its namespace, with DOGGED_HOST naming the machine."""
         return ["ip", "netns", "exec", self.ns(host), "env", f"DOGGED_HOST={host}", *argv]
 
-    def run(self, host: str, argv: list[str], log: str | Path | None = None, env: dict | None = None,
-            **popen) -> subprocess.Popen:
+    def run(self, host: str, argv: list[str], log: str | Path | None = None, **popen) -> subprocess.Popen:
         """Start `argv` on `host` (stdout and stderr to `log`); stopped by close()."""
         out = open(log, "ab") if log else subprocess.DEVNULL
-        proc = subprocess.Popen(self.command(host, argv), stdout=out, stderr=subprocess.STDOUT,
-                                env={**os.environ, **(env or {})}, **popen)
+        proc = subprocess.Popen(self.command(host, argv), stdout=out, stderr=subprocess.STDOUT, **popen)
         self.procs.append(proc)
         return proc
-
-    def call(self, host: str, argv: list[str], timeout: float = 60, env: dict | None = None) -> subprocess.CompletedProcess:
-        """Run `argv` on `host` to the end: its exit code, stdout and stderr."""
-        return subprocess.run(self.command(host, argv), capture_output=True, text=True, timeout=timeout,
-                              env={**os.environ, **(env or {})})
 
     def cut(self, host: str) -> None:
         """The host's frames stop reaching the switch, and the switch's stop reaching it; no one is told."""

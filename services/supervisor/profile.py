@@ -67,10 +67,8 @@ class Profile:
         return f"{BOX_ROLES[spec.box]}.{name}"
 
     def identities(self) -> list[str]:
-        """Every certificate the profile needs: the router's, the supervisor's,
-        each service's."""
-        return ["router.router", f"supervisor.{self.name}"] + \
-            [self.identity(s) for s in self.services]
+        """Every certificate the profile needs: the router's, the supervisor's, each service's."""
+        return ["router.router", f"supervisor.{self.name}"] + [self.identity(s) for s in self.services]
 
 
 def swapped_from(name: str) -> str:

@@ -1,9 +1,9 @@
 """`dogged up`: start a router and every service of a profile, watch, restart, hot-swap, stop.
 
 With `--join ENDPOINT` (the profile's share of a deployment whose router runs on another machine)
-its router links to that one: the services here talk among themselves on this machine. The supervisor is a Zenoh client of the
-router: readiness is a service's liveliness
-token, `dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<verb>.
+its router links to that one: the services here talk among themselves on this machine. The
+supervisor is a Zenoh client of its router: readiness is a service's liveliness token,
+`dogged ps|down|logs|swap` are queries to dogged/supervisor/<profile>/<verb>.
 """
 from __future__ import annotations
 
@@ -24,15 +24,17 @@ from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 
 log = logging.getLogger("dogged.supervisor")
-def router_token(profile: str) -> str:
-    """The liveliness token a profile's router declares (services/boxes/router.py): one per profile, as
-    linked routers of several machines share one bus."""
-    return f"dogged/router/{profile}"
 # the supervisor's verbs and the parameters each takes; anything else is refused with an answer
 VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"}, "down": set()}
 MAX_LOG_LINES = 10_000
 REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
+
+
+def router_token(profile: str) -> str:
+    """The liveliness token a profile's router declares (services/boxes/router.py): one per profile, as
+    linked routers of several machines share one bus."""
+    return f"dogged/router/{profile}"
 
 
 def box_command(box: str, *args: str) -> list[str]:
@@ -160,17 +162,15 @@ class Supervisor:
     def ps(self) -> list[dict]:
         """Its own services, then every other service whose status came in the last few seconds
         (a teacher on another machine, another profile's share of the deployment), with its host."""
-        rows, own = [], set()
+        rows = []
         for proc in self.procs.values():
             row = proc.describe()
-            key = f"{proc.spec.role}/{proc.spec.name}"
-            own.add(key)
-            status = self.status.get(key, {})
+            status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
             row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status))
             rows.append(row)
         now = time.monotonic()
         for key, status in sorted(self.status.items()):
-            if key not in own and key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
+            if key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
                 role, name = key.split("/", 1)
                 rows.append({"name": name, "box": role, "pid": status["pid"], "state": "remote", "restarts": 0,
                              "uptime_s": 0.0, "exit": "", "rates": status["rates"], "host": status["host"],
@@ -237,8 +237,7 @@ class Supervisor:
             log.info("stopping %s", prof.name)
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
-        if "router" in self.procs:
-            self.procs["router"].stop()
+        self.procs["router"].stop()
         log.info("stopped; no process left")
         return 0
 
