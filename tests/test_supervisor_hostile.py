@@ -1,5 +1,5 @@
 """A stranger on the bus cannot take the supervisor down (issue 12): bad parameters, unknown verbs,
-a swap to no learner and a forged status are answered or ignored; the deployment keeps running."""
+a swap to no learner and forged statuses are answered, refused or bounded; the deployment keeps running."""
 import json
 import time
 
@@ -34,8 +34,13 @@ def test_hostile_queries_and_a_forged_status_leave_the_supervisor_running(tmp_pa
             answers["swap?spec=nosuch"] = ask(session, "swap", "spec=nosuch")
             swap_seconds = time.monotonic() - began
             forged = Status("learner", "learner", 1, {"pairs": 1}, {"rates": [1, 2, 3]})
-            for name in ("learner", "arbitrator"):
+            for name in ("learner", "arbitrator"):  # the second says it is the learner on another's key
                 session.put(f"dl/main/status/{name}/{name}", encode(forged))
+            # well-formed strangers under 300 names, a name no service may have, a key that is not its own
+            for i in range(300):
+                session.put(f"dl/main/status/teacher/ghost{i}", encode(Status("teacher", f"ghost{i}", 7, {}, {})))
+            session.put("dl/main/status/teacher/Bad Name", encode(Status("teacher", "Bad Name", 7, {}, {})))
+            session.put("dl/main/status/teacher/ghost0", encode(Status("teacher", "other", 7, {}, {})))
             time.sleep(1.5)
             listed = ask(session, "ps")
         assert {k: a.ok for k, a in answers.items()} == {k: False for k in answers}, \
@@ -44,7 +49,11 @@ def test_hostile_queries_and_a_forged_status_leave_the_supervisor_running(tmp_pa
         assert "no verb 'shutdown'" in answers["shutdown?"].text
         assert "no learner 'nosuch'" in answers["swap?spec=nosuch"].text and swap_seconds < 5.0
         assert listed.ok and listed.data["refused"]["logs"] == 4 and listed.data["refused"]["unknown"] == 2
-        assert sup.poll() is None and all(r["state"] == "ready" for r in ps(endpoint).values())
+        assert listed.data["refused"]["status"] == 3, listed.data["refused"]
+        remote = [r["name"] for r in listed.data["services"] if r["state"] == "remote"]
+        assert len(remote) == 64 and all(n.startswith("ghost") for n in remote), remote  # the freshest 64 only
+        own = [r for r in ps(endpoint).values() if r["state"] != "remote"]  # the ghosts are listed, as remote
+        assert sup.poll() is None and len(own) == 5 and all(r["state"] == "ready" for r in own), own
         assert dogged_ok("logs", "learner", "-n", "5", endpoint=endpoint).returncode == 0
         assert json.loads(dogged_ok("ps", "--json", endpoint=endpoint).stdout)["services"]
     finally:

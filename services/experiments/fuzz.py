@@ -36,7 +36,7 @@ FAR_TICKS = (2 ** 63 - 1, 2 ** 62, 10 ** 15)
 class Case:
     key: str
     payload: bytes
-    counted_by: tuple[str, ...]  # services whose `rejected` counter must grow by one
+    counted_by: tuple[str, ...]  # services whose `rejected` counter must grow by one (the supervisor: ps "refused")
     what: str
 
 
@@ -157,7 +157,7 @@ def cases(rng: np.random.Generator, keys, robot, n: int, epoch: str, seq: int) -
         (robot.handle, Handle, ("aibo",), None),
         (robot.arena, ArenaReset, ("aibo",), ("aibo",)),
         (robot.clock, Clock, ("handler",), None),
-        (keys.status("fuzz", "fuzz"), Status, (), None),  # the supervisor: must not break ps
+        (keys.status("fuzz", "fuzz"), Status, ("supervisor",), None),  # in ps: "refused" "status"
     ]
     out = []
     for i in range(n):
@@ -261,7 +261,7 @@ def run_fuzz(run_dir: Path, endpoint: str, n_payloads: int = 9000, n_queries: in
         pids = {name: row["pid"] for name, row in rows.items()}
         result.rate_before = command_rate(run, 3.0)
         before, result.learned_before_fuzz = rejected(run), learned(run)
-        refused_before = sum(run_ps_refused(run).values())
+        refused_before = run_ps_refused(run)
         epoch, seq = arbitrator_epoch(run)
         todo = cases(rng, run.keys, run.robot, n_payloads, epoch, seq)
         publishers = {}
@@ -292,7 +292,10 @@ def run_fuzz(run_dir: Path, endpoint: str, n_payloads: int = 9000, n_queries: in
         time.sleep(3.0)  # every status refreshed
         after = rejected(run)
         result.counted = {name: after.get(name, 0) - before.get(name, 0) for name in set(after) | set(before)}
-        result.supervisor_refused = sum(run_ps_refused(run).values()) - refused_before
+        refused = Counter(run_ps_refused(run))
+        refused.subtract(refused_before)
+        result.counted["supervisor"] = refused.pop("status", 0)  # statuses it would not keep
+        result.supervisor_refused = sum(refused.values())  # verbs it answered with an error
         result.learned_after_fuzz = learned(run)
         rows = run.ps()
         result.restarts = {name: row.get("restarts", 0) for name, row in rows.items()}

@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import zenoh
 
-from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, decode, encode, supervisor_key
+from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, check_name, decode, encode, supervisor_key
 from services.bus import HOST, Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
@@ -28,6 +28,7 @@ log = logging.getLogger("dogged.supervisor")
 VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"}, "down": set()}
 MAX_LOG_LINES = 10_000
 REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
+MAX_REMOTE = 64  # services not ours kept and listed (the freshest): forged statuses under many names bloat nothing
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
@@ -52,7 +53,7 @@ class Supervisor:
         self.swap_count = 0
         self.deferred: list = []                   # verbs that arrived during a swap
         self.teaching: dict[str, tuple] = {}       # teacher service -> (its switch, since when)
-        self.refused: collections.Counter = collections.Counter()  # verbs answered with an error
+        self.refused: collections.Counter = collections.Counter()  # verbs answered with an error; bad statuses
         self.started: set[str] = set()             # "<role>/<name>" of every service this supervisor ran
 
     # --- processes --------------------------------------------------------------------------
@@ -120,15 +121,30 @@ class Supervisor:
             (self.alive.add if kind == zenoh.SampleKind.PUT else self.alive.discard)(key)
             self.note_teaching(key, kind == zenoh.SampleKind.PUT)
         elif tag == "status":
-            try:
-                msg = decode(Status, raw, key)
-                self.status[f"{msg.role}/{msg.name}"] = {
-                    "counters": msg.counters, "state": msg.state, "rates": numeric_rates(msg.state.get("rates")),
-                    "pid": msg.pid, "host": str(msg.state.get("host", "?"))[:64], "seen": time.monotonic()}
-            except ValueError:
-                pass
+            self.on_status(key, raw)
         else:
             self.on_control(key.rsplit("/", 1)[-1], raw, session)
+
+    def on_status(self, key: str, raw: bytes) -> None:
+        """A service's status, kept for `ps`: only one that says who it is where that service speaks."""
+        try:
+            msg = decode(Status, raw, key)
+            check_name("status role", msg.role), check_name("status service", msg.name)
+            if not key.endswith(f"/status/{msg.role}/{msg.name}"):
+                raise ValueError(f"the status of {msg.role}/{msg.name} came on {key}")
+        except ValueError as err:
+            self.refused["status"] += 1
+            if self.refused["status"] <= 10 or self.refused["status"] % 1000 == 0:
+                log.warning("status refused (%d so far): %s", self.refused["status"], str(err)[:200])
+            return
+        member = f"{msg.role}/{msg.name}"
+        self.status[member] = {"counters": msg.counters, "state": msg.state,
+                               "rates": numeric_rates(msg.state.get("rates")), "pid": msg.pid,
+                               "host": str(msg.state.get("host", "?"))[:64], "seen": time.monotonic()}
+        if member not in self.started and len(self.status) > len(self.started) + MAX_REMOTE:
+            remote = sorted((k for k in self.status if k not in self.started), key=lambda k: self.status[k]["seen"])
+            for forgotten in remote[:-MAX_REMOTE]:  # the stalest go first
+                del self.status[forgotten]
 
     def on_control(self, verb: str, query: zenoh.Query, session) -> None:
         try:
