@@ -49,9 +49,11 @@ def test_swap_learners_during_200hz_run(tmp_path):
         # k=5), taught the old one's history
         same = dogged_ok("swap", "learner", "knn:k=3", endpoint=endpoint, timeout=120)
         assert same.returncode == 0, same.stdout + same.stderr
+        assert "learner-s2 (knn:k=3) serves in place of learner-s1, trained on its " in same.stdout, same.stdout
         # the same class and hyper-parameters: the old one's snapshot is restored
         again = dogged_ok("swap", "learner", "knn:k=3", endpoint=endpoint, timeout=120)
         assert again.returncode == 0, again.stdout + again.stderr
+        assert "restored from the old one's snapshot" in again.stdout, again.stdout
         assert set(ps(endpoint)) == {"router", "platform", "teacher", "learner-s3", "arbitrator"}
         wait(lambda: summary.exists(), 60, "the platform to finish its ticks")
         time.sleep(2.5)  # two status periods: the final counters are out

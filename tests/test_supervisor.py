@@ -110,3 +110,40 @@ def test_a_service_that_will_not_stop_says_where_it_is_stuck_before_it_is_killed
         proc.wait(1.0)
     assert dump_stacks_then_kill(proc) == -9
     assert f'File "{stuck}", line 7' in proc.stdout.read()
+
+
+SMALL = """
+[profile]
+name = "orphans"
+log_dir = "{logs}"
+
+[services.platform]
+box = "platform"
+args = ["--platform", "point", "--param", "dims=2", "--rate", "50"]
+
+[services.teacher]
+box = "demonstrator"
+args = ["--teacher", "sine", "--on"]
+"""
+
+
+def test_services_stop_when_the_supervisor_is_killed(tmp_path):
+    """SIGKILL gives the supervisor no chance to stop anything: each service (the router too) sees its
+    parent gone and stops by itself."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    profile = tmp_path / "orphans.toml"
+    profile.write_text(SMALL.format(logs=tmp_path / "logs"))
+    sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
+    try:
+        rows = wait(lambda: (r := ps(endpoint)) and len(r) == 3 and all(x["state"] == "ready" for x in r.values())
+                    and r, 90, "every service ready")
+        pids = {name: row["pid"] for name, row in rows.items()}
+        assert all(alive(p) for p in pids.values())
+    finally:
+        sup.send_signal(signal.SIGKILL)
+        sup.wait(10)
+    try:
+        wait(lambda: not any(alive(p) for p in pids.values()), 10, "every service gone after its supervisor")
+    finally:  # a failed check leaves no orphans behind
+        for pid in filter(alive, pids.values()):
+            os.kill(pid, signal.SIGKILL)

@@ -126,10 +126,12 @@ class LearnerNode:
         snap = self.query(self.keys.snapshot(old), Snapshot, timeout=10.0)
         if snap is None:
             self.log.error("learner %s did not answer with a snapshot; starting cold", old)
+            self.counts.update(warmed=0, warm_failed=1)
             return False
         history = self.query(self.keys.history(old), PairBatch, f"epoch={snap.epoch};upto={snap.seq}", timeout=30.0)
         if history is None or len(history.x) != snap.n_learned:
             self.log.error("learner %s's history is incomplete; starting cold", old)
+            self.counts.update(warmed=0, warm_failed=1)
             return False
         restored = None
         if snap.learner_class == type(self.model).__name__:

@@ -120,8 +120,9 @@ def ps(args) -> int:
         rates = " ".join(f"{k}={v:g}" for k, v in sorted(row["rates"].items()))
         ticks = " ".join(f"{k}={v:g}" for k, v in sorted(row.get("ticks", {}).items()))
         uptime = f"{row['uptime_s']:>8.0f}s" if row["state"] != "remote" else f"{'-':>9}"
+        why = row.get("why") or (f"exit {row['exit']}" if row["state"] in ("failed", "backoff") else "")
         print(f"{row['name']:<14}{row['box']:<14}{row.get('host', '?')[:11]:<12}{row['pid']:>8}  {row['state']:<9}"
-              f"{row['restarts']:>9}{uptime}  {rates}{'  ' + ticks if ticks else ''}")
+              f"{row['restarts']:>9}{uptime}  {' '.join(filter(None, (why, rates, ticks)))}")
     return 0
 
 

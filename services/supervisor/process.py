@@ -26,7 +26,7 @@ class ManagedProcess:
         self.ready_at = 0.0
         self.restart_at = 0.0
         self.died_at = 0.0  # when the supervisor saw it exit (monotonic)
-        self.last_exit: int | None = None
+        self.last_exit: int | str | None = None  # an exit code, or "not ready" (stopped at its ready_timeout_s)
         self.tail: deque[str] = deque(maxlen=2000)
         self._lock = threading.Lock()
 
@@ -77,6 +77,17 @@ class ManagedProcess:
         self.restarts += 1
         self.state, self.restart_at = "backoff", time.monotonic() + delay
         self._line(f"--- restart {self.restarts}/{self.spec.max_restarts} in {delay:.1f} s")
+
+    def not_ready(self) -> None:
+        """It outlived its ready_timeout_s without becoming ready: stopped, then restarted or failed as a
+        failed start would be."""
+        self._line(f"--- not ready within {self.spec.ready_timeout_s:g} s: stopped")
+        self.stop(timeout=2.0)
+        self.last_exit = "not ready"
+        if self.should_restart(1):
+            self.schedule_restart()
+        else:
+            self.state = "failed"
 
     def stop(self, timeout: float = 5.0) -> None:
         if self.proc is not None and self.proc.poll() is None:

@@ -28,6 +28,7 @@ class ServiceSpec:
     ready_timeout_s: float = 60.0
     env: dict = field(default_factory=dict)
     after: tuple[str, ...] = ()   # start once these services are ready
+    stands_for: str = ""          # a hot-swapped learner: the profile's learner service it replaces
 
     @property
     def role(self) -> str:
@@ -63,17 +64,11 @@ class Profile:
     def identity(self, spec: ServiceSpec) -> str:
         """The certificate a service of this profile shows: <role>.<service name>."""
         from services.security import BOX_ROLES
-        name = swapped_from(spec.name) if spec.box == "learner" else spec.name
-        return f"{BOX_ROLES[spec.box]}.{name}"
+        return f"{BOX_ROLES[spec.box]}.{spec.stands_for or spec.name}"
 
     def identities(self) -> list[str]:
         """Every certificate the profile needs: the router's, the supervisor's, each service's."""
         return ["router.router", f"supervisor.{self.name}"] + [self.identity(s) for s in self.services]
-
-
-def swapped_from(name: str) -> str:
-    """The profile's learner service a hot-swapped one (named <service>-s<N>) stands in for."""
-    return name.split("-s")[0]
 
 
 def _get(table: dict, key: str, kind, where: str, default=None, choices=None):

@@ -17,11 +17,12 @@ from dataclasses import replace
 
 import zenoh
 
-from bus_schema import ControlReply, InstanceKeys, SelectLearner, Status, check_name, decode, encode, supervisor_key
-from services.bus import HOST, Inbox, StopFlag, lossless_publisher, wait_matching, zenoh_config
+from bus_schema import ControlReply, InstanceKeys, Status, check_name, decode, encode, supervisor_key
+from services.bus import HOST, Inbox, StopFlag, zenoh_config
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
+from services.supervisor.swap import swap_learner
 
 log = logging.getLogger("dogged.supervisor")
 # the supervisor's verbs and the parameters each takes; anything else is refused with an answer
@@ -55,6 +56,11 @@ class Supervisor:
         self.teaching: dict[str, tuple] = {}       # teacher service -> (its switch, since when)
         self.refused: collections.Counter = collections.Counter()  # verbs answered with an error; bad statuses
         self.started: set[str] = set()             # "<role>/<name>" of every service this supervisor ran
+        self.waiting: list[ServiceSpec] = []       # started in order once what they come `after` is ready
+        self.blocked: set[str] = set()             # waiting services told they cannot start (what they await failed)
+        self.stop_flag: StopFlag | None = None     # Ctrl-C or SIGTERM, while run() runs
+        self.swapping = False                      # a swap is under way: other verbs wait their turn
+        self.up_since, self.announced = time.monotonic(), False
 
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
@@ -94,6 +100,29 @@ class Supervisor:
                 proc.start()
             if proc.state == "starting" and proc.ready_key in self.alive and proc.pid:
                 proc.state, proc.ready_at = "ready", now
+            elif proc.state == "starting" and now - proc.started_at > proc.spec.ready_timeout_s:
+                awaiting = [s.name for s in self.waiting if proc.spec.name in s.after]
+                log.error("%s did not become ready within %g s (no token %s)%s: stopped; its log: %s",
+                          proc.spec.name, proc.spec.ready_timeout_s, proc.ready_key,
+                          f"; {', '.join(awaiting)} wait for it" if awaiting else "", proc.log_path)
+                proc.not_ready()
+
+    def start_due(self) -> None:
+        """Starts each waiting service once every service it comes after is ready; says once of each that
+        cannot start because one of those failed for good."""
+        for spec in list(self.waiting):
+            states = {a: self.procs[a].state if a in self.procs else "waiting" for a in spec.after}
+            if all(state == "ready" for state in states.values()):
+                self.waiting.remove(spec)
+                self.add(spec)
+            elif "failed" in states.values() and spec.name not in self.blocked:
+                self.blocked.add(spec.name)
+                failed = [a for a, state in states.items() if state == "failed"]
+                log.error("%s will not start: it comes after %s, which failed", spec.name, ", ".join(failed))
+        if not self.announced and not self.waiting and self.all_ready():
+            self.announced = True
+            log.info("all %d services of %s are ready (%.1f s)", len(self.profile.services), self.profile.name,
+                     time.monotonic() - self.up_since)
 
     def all_ready(self) -> bool:
         return all(p.state == "ready" for p in self.procs.values() if p.spec.box != "router")
@@ -184,6 +213,10 @@ class Supervisor:
             status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
             row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status))
             rows.append(row)
+        for spec in self.waiting:
+            why = "after " + ", ".join(f"{a} ({self.procs[a].state})" if a in self.procs else a for a in spec.after)
+            rows.append({"name": spec.name, "box": spec.box, "pid": 0, "state": "waiting", "restarts": 0,
+                         "uptime_s": 0.0, "exit": "", "rates": {}, "host": HOST, "why": why})
         now = time.monotonic()
         for key, status in sorted(self.status.items()):
             if key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
@@ -201,12 +234,57 @@ class Supervisor:
 
     # --- hot-swap ---------------------------------------------------------------------------
     def swap(self, session, service: str, spec_text: str) -> ControlReply:
-        from services.supervisor.swap import swap_learner
-        return swap_learner(self, session, service, spec_text)
+        self.swapping = True
+        try:
+            return swap_learner(self, session, service, spec_text)
+        finally:
+            self.swapping = False
+
+    # --- what a swap asks of the supervisor ---------------------------------------------------
+    def ready_learners(self) -> list[ManagedProcess]:
+        return [p for p in self.procs.values() if p.spec.box == "learner" and p.state == "ready"]
+
+    def retire(self, name: str) -> None:
+        """Stops a service and forgets it (a learner swapped out, or its replacement that failed)."""
+        self.procs.pop(name).stop()
+
+    def reports(self, role: str, field: str, value) -> bool:
+        """Whether a service of this role says in its status that `field` is `value`."""
+        return any(s.get("state", {}).get(field) == value for m, s in self.status.items() if m.startswith(f"{role}/"))
+
+    def status_of(self, spec: ServiceSpec) -> dict:
+        return self.status.get(f"{spec.role}/{spec.name}", {})
+
+    # --- the event loop ---------------------------------------------------------------------
+    def pump(self, session, until=lambda: False, timeout: float = math.inf) -> bool:
+        """The supervisor's one event loop (a swap waits in it too): starts what may start, handles bus
+        events and verbs, watches processes. True once until() holds; False when the timeout passes or
+        the profile is stopping (Ctrl-C, SIGTERM, `dogged down`)."""
+        end = time.monotonic() + timeout
+        while not (self.stopping or (self.stop_flag is not None and self.stop_flag)):
+            self.start_due()
+            self.handle_events(session)
+            self.watch()
+            if until():
+                return True
+            if time.monotonic() >= end:
+                return False
+        self.stopping = True
+        return False
+
+    def handle_events(self, session) -> None:
+        """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order)."""
+        item = self.deferred.pop(0) if self.deferred and not self.swapping else self.inbox.get(0.05)
+        while item is not None:
+            if item[0] == "control" and self.swapping:
+                self.deferred.append(item)
+            else:
+                self.on_event(item, session)
+            item = self.inbox.get_nowait()
 
     # --- the run ----------------------------------------------------------------------------
     def run(self) -> int:
-        stop = StopFlag()
+        self.stop_flag = StopFlag()
         prof = self.profile
         if prof.low_latency and hold_low_latency(log):
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
@@ -233,23 +311,8 @@ class Supervisor:
             held.append(session.declare_queryable(supervisor_key(prof.name, "*"),
                                                   self.inbox.query_callback("control")))
             held.append(session.liveliness().declare_token(f"dogged/supervisor/{prof.name}"))
-            waiting = list(prof.services)  # started in order once what they come `after` is ready
-            announced, started = False, time.monotonic()
-            while not stop and not self.stopping:
-                for spec in [s for s in waiting if all(self.procs.get(a) and self.procs[a].state == "ready"
-                                                        for a in s.after)]:
-                    waiting.remove(spec)
-                    self.add(spec)
-                item = self.deferred.pop(0) if self.deferred else self.inbox.get(0.05)
-                while item is not None:
-                    self.on_event(item, session)
-                    item = self.inbox.get_nowait()
-                self.watch()
-                if not announced and not waiting and self.all_ready():
-                    announced = True
-                    log.info("all %d services of %s are ready (%.1f s)", len(prof.services), prof.name,
-                             time.monotonic() - started)
-            self.stopping = True
+            self.waiting, self.up_since = list(prof.services), time.monotonic()
+            self.pump(session)  # until the profile is stopping
             log.info("stopping %s", prof.name)
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
@@ -270,9 +333,3 @@ def numeric_rates(rates) -> dict:
         return {}
     return {k: v for k, v in rates.items() if isinstance(k, str) and type(v) in (int, float) and math.isfinite(v)
             and v}
-
-
-def select_learner(session, instance: str, learner: str) -> None:
-    pub = lossless_publisher(session, InstanceKeys(instance).select_learner)
-    wait_matching(pub, 5.0)
-    pub.put(encode(SelectLearner(learner)))

@@ -11,8 +11,8 @@ import logging
 import time
 from pathlib import Path
 
-from bus_schema import ControlReply
-from services.supervisor.profile import ServiceSpec, swapped_from
+from bus_schema import ControlReply, InstanceKeys, SelectLearner, encode
+from services.bus import lossless_publisher, wait_matching
 
 log = logging.getLogger("dogged.supervisor")
 
@@ -33,33 +33,20 @@ def parse_learner_spec(text: str) -> tuple[str, list[str]]:
     return name, params
 
 
+LEARNER_FLAGS = ("--learner", "--param", "--warm-from")  # what defines a learner, not where it runs
+
+
 def _kept_args(args: tuple[str, ...]) -> list[str]:
-    """The old learner's flags minus what defines the learner itself."""
+    """The old learner's flags minus what defines the learner itself (`--param x` or `--param=x`)."""
     out, skip = [], False
     for arg in args:
         if skip:
             skip = False
-        elif arg in ("--learner", "--param", "--warm-from"):
+        elif arg in LEARNER_FLAGS:
             skip = True
-        else:
+        elif not arg.startswith(tuple(f"{flag}=" for flag in LEARNER_FLAGS)):
             out.append(arg)
     return out
-
-
-def _wait(sup, session, condition, timeout: float) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        item = sup.inbox.get(0.05)
-        while item is not None:
-            if item[0] == "control":  # another verb during a swap: answer it later, in order
-                sup.deferred.append(item)
-            else:
-                sup.on_event(item, session)
-            item = sup.inbox.get_nowait()
-        sup.watch()
-        if condition():
-            return True
-    return False
 
 
 def _set_aside_stale_log(args: tuple[str, ...], name: str) -> None:
@@ -75,9 +62,17 @@ def _set_aside_stale_log(args: tuple[str, ...], name: str) -> None:
         log.warning("an earlier run's %s set aside as %s before the swap", log_file, aside.name)
 
 
+def select_learner(session, instance: str, learner: str) -> None:
+    """Tells the instance's arbitrator which learner to listen to."""
+    pub = lossless_publisher(session, InstanceKeys(instance).select_learner)
+    wait_matching(pub, 5.0)
+    pub.put(encode(SelectLearner(learner)))
+
+
 def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
-    from services.supervisor.supervisor import select_learner
-    learners = [p for p in sup.procs.values() if p.spec.box == "learner" and p.state == "ready"]
+    """Swaps learner `service` (or the only ready one) for `spec_text`, waiting in the supervisor's
+    event loop (sup.pump) so that everything else goes on meanwhile."""
+    learners = sup.ready_learners()
     old = sup.procs.get(service) if service else (learners[0] if len(learners) == 1 else None)
     if old is None or old.spec.box != "learner":
         names = ", ".join(p.spec.name for p in learners) or "none"
@@ -87,29 +82,38 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     except ValueError as err:
         return ControlReply(False, str(err), {})
     sup.swap_count += 1
-    base = swapped_from(old.spec.name)
-    new_name = f"{base}-s{sup.swap_count}"
+    stands_for = old.spec.stands_for or old.spec.name  # the profile's service, whatever its name
+    new_name = f"{stands_for}-s{sup.swap_count}"
     args = ("--learner", learner, *params, "--warm-from", old.spec.name, *_kept_args(old.spec.args))
-    spec = dataclasses.replace(old.spec, name=new_name, args=args)
+    spec = dataclasses.replace(old.spec, name=new_name, args=args, stands_for=stands_for)
     _set_aside_stale_log(sup.profile.service_args(spec), new_name)
     started = time.monotonic()
     new = sup.add(spec)
-    if not _wait(sup, session, lambda: new.state == "ready", spec.ready_timeout_s):
-        new.stop()
-        del sup.procs[new_name]
-        return ControlReply(False, f"{new_name} did not become ready in {spec.ready_timeout_s:.0f} s; "
-                                   f"{old.spec.name} still serves (see dogged logs {new_name})", {})
+    sup.pump(session, lambda: new.state != "starting", spec.ready_timeout_s + 1.0)
+    if new.state != "ready":
+        sup.retire(new_name)
+        why = "the profile is stopping" if sup.stopping else (
+            f"it did not become ready in {spec.ready_timeout_s:g} s" if new.last_exit in (None, "not ready")
+            else f"it exited with {new.last_exit}")
+        return ControlReply(False, f"{new_name} does not serve: {why}; {old.spec.name} still serves "
+                                   f"(see dogged logs {new_name})", {})
     warm_s = time.monotonic() - started
     select_learner(session, spec.instance, new_name)
-    switched = _wait(sup, session, lambda: _arbitrator_reports(sup, new_name), 10.0)
-    if not switched:
+    if not sup.pump(session, lambda: sup.reports("arbitrator", "learner", new_name), 10.0):
         return ControlReply(False, f"the arbitrator did not confirm {new_name}; both learners keep running", {})
-    old.stop()
-    del sup.procs[old.spec.name]
-    return ControlReply(True, f"{new_name} ({learner}) serves in place of {old.spec.name} "
-                              f"(warm in {warm_s:.1f} s)", {"new": new_name, "old": old.spec.name})
+    sup.retire(old.spec.name)
+    sup.pump(session, lambda: "warmed" in sup.status_of(spec).get("counters", {}), 3.0)
+    return ControlReply(True, f"{new_name} ({spec_text}) serves in place of {old.spec.name}, "
+                              f"{_how_warmed(sup.status_of(spec))} in {warm_s:.1f} s",
+                        {"new": new_name, "old": old.spec.name})
 
 
-def _arbitrator_reports(sup, learner: str) -> bool:
-    return any(s.get("state", {}).get("learner") == learner
-               for member, s in sup.status.items() if member.startswith("arbitrator/"))
+def _how_warmed(status: dict) -> str:
+    counters = status.get("counters", {})
+    if counters.get("warm_failed"):
+        return "started cold: the old one's snapshot or history did not come (see its log)"
+    if counters.get("warmed_by_snapshot"):
+        return "restored from the old one's snapshot"
+    if "warmed" in counters:
+        return f"trained on its {counters['warmed']} pairs"
+    return "warmed (its status did not say how)"
