@@ -1,13 +1,16 @@
-"""Every training pair a learner has incorporated, in memory and optionally in an append-only file.
+"""Every training pair a learner has incorporated, in an append-only file; memory holds only their count.
 
 The file is a stream of msgpack TrainingPair payloads; a crash can cut the last record short, so
 replay stops where the last record is incomplete and truncates the file there. A whole record that is
 not a pair this learner can learn (other dimensions: the spaces changed, or were answered by someone
 else) is a PairLogError, and the file is left as it is: nothing a learner was taught is thrown away.
+A learner with no state directory keeps its pairs in a temporary file that goes when it does: a
+replacement (hot-swap) can still learn them all, and hours of teaching cost disk, not memory.
 """
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import msgpack
@@ -23,45 +26,39 @@ class PairLogError(RuntimeError):
 class PairLog:
     def __init__(self, n_in: int, n_out: int, path: str | os.PathLike | None = None):
         self.n_in, self.n_out = n_in, n_out
-        self._x = np.empty((1024, n_in))
-        self._y = np.empty((1024, n_out))
-        self._mask = np.empty((1024, n_out))  # the outputs taught: all 1 for a whole pair
+        self._scratch = None if path else tempfile.TemporaryDirectory(prefix="dogged-pairs-")
+        self.path = Path(path) if path else Path(self._scratch.name) / "pairs"
+        self.durable = path is not None  # flushed after every pair: a crash loses at most a torn record
         self._n = 0
-        self.path = Path(path) if path else None
-        self._file = None
+        self._file = None if path else open(self.path, "ab")
 
     def __len__(self) -> int:
         return self._n
 
-    def append(self, x: np.ndarray, y: np.ndarray, pair: TrainingPair | None = None, mask=None) -> None:
-        if self._n == len(self._x):  # amortised growth: doubling
-            self._x = np.concatenate([self._x, np.empty_like(self._x)])
-            self._y = np.concatenate([self._y, np.empty_like(self._y)])
-            self._mask = np.concatenate([self._mask, np.empty_like(self._mask)])
-        self._x[self._n], self._y[self._n] = x, y
-        self._mask[self._n] = 1.0 if mask is None else mask
-        self._n += 1
-        if self._file is not None and pair is not None:
-            self._file.write(encode(pair))
+    def append(self, pair: TrainingPair) -> None:
+        self._file.write(encode(pair))
+        if self.durable:
             self._file.flush()
+        self._n += 1
 
-
-    @property
-    def x(self) -> np.ndarray:
-        return self._x[: self._n]
-
-    @property
-    def y(self) -> np.ndarray:
-        return self._y[: self._n]
-
-    @property
-    def mask(self) -> np.ndarray:
-        return self._mask[: self._n]
+    def history(self, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The first n pairs (all by default) as (x, y, mask) rows, read back from the file."""
+        n = self._n if n is None else min(n, self._n)
+        self._file.flush()
+        x, y, mask = np.empty((n, self.n_in)), np.empty((n, self.n_out)), np.ones((n, self.n_out))
+        with open(self.path, "rb") as f:
+            unpacker = msgpack.Unpacker(f, raw=False)
+            for row in range(n):
+                pair = self._pair(next(unpacker), row + 1)
+                x[row], y[row] = pair.x, pair.y
+                if pair.mask is not None:
+                    mask[row] = pair.mask
+        return x, y, mask
 
     def replay_file(self) -> list[TrainingPair]:
         """Pairs saved by an earlier run of this learner (it crashed or was restarted); opens for appending."""
         pairs: list[TrainingPair] = []
-        if self.path is None:
+        if not self.durable:
             return pairs
         self.path.parent.mkdir(parents=True, exist_ok=True)
         good_bytes = 0
@@ -77,7 +74,7 @@ class PairLog:
                                    "the file is kept as it is: move it away to start afresh") from None
             if good_bytes < self.path.stat().st_size:
                 os.truncate(self.path, good_bytes)  # drop the torn tail, keep every whole pair
-        self._file = open(self.path, "ab")
+        self._file, self._n = open(self.path, "ab"), len(pairs)
         return pairs
 
     def _pair(self, item, number: int) -> TrainingPair:
@@ -93,3 +90,6 @@ class PairLog:
         if self._file is not None:
             self._file.close()
             self._file = None
+        if self._scratch is not None:
+            self._scratch.cleanup()
+            self._scratch = None

@@ -1,5 +1,6 @@
 """LWPR specifics beyond the shared conformance suite."""
 import numpy as np
+import pytest
 
 from services.learners import make_learner
 from services.learners.kernel_cache import drop_stale_numba_cache
@@ -104,3 +105,26 @@ def test_snapshot_from_before_novelty_scale_restores_with_its_default():
     assert old.novelty_scale == 0.25 and old._hp.shape == model._hp.shape
     probe = [0.3, -0.2, 1.0]
     assert old.predict_one(probe).confidence == model.predict_one(probe).confidence
+
+
+def test_learn_many_refuses_inputs_that_overflow_once_scaled_and_never_loops():
+    """Finite inputs times 1/norm_in can overflow: the kernel refused the row and learn_many asked it
+    again for ever. Now every row is checked before any is learned."""
+    import signal
+
+    from services.learners.errors import LearnerInputError
+    model = make_learner("lwpr", 2, 1, norm_in=0.01)
+    xs, ys = np.array([[0.1, 0.2], [1e307, 0.0]]), np.zeros((2, 1))
+
+    def hung(*_):
+        raise TimeoutError("learn_many loops")
+    signal.signal(signal.SIGALRM, hung)
+    signal.alarm(10)
+    try:
+        with pytest.raises(LearnerInputError, match=r"input 0 is inf once divided by norm_in"):
+            model.learn_many(xs, ys)
+    finally:
+        signal.alarm(0)
+    assert model.n_learned == 0 and model.size == 0
+    with pytest.raises(LearnerInputError, match="once divided by norm_in"):
+        model.learn_one(xs[1], ys[1])

@@ -21,7 +21,7 @@ def saved_log(path, n=5):
     log.replay_file()
     for i in range(n):
         x, y = np.full(2, i, float), np.full(1, -i, float)
-        log.append(x, y, TrainingPair("e", i + 1, i, x, y, "teacher/t"))
+        log.append(TrainingPair("e", i + 1, i, x, y, "teacher/t"))
     log.close()
     return path.read_bytes()
 

@@ -47,8 +47,7 @@ class AiboLoop(PlatformLoop):
         if self.input_mode == "joints":
             super().publish_input()
         else:  # the frame is the tick: perception answers it with the input
-            self.tick += 1
-            self.publish_frame(self.tick)
+            self.publish_frame(self.next_tick())
         self.publish_robot_streams()
 
     def publish_frame(self, tick: int):

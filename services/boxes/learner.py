@@ -47,10 +47,10 @@ class LearnerNode:
                 self.counts["partial_pairs_learned_whole"] += 1  # see docs/results.md: use per-output
             self.model.learn_one(x, y)
 
-    def incorporate(self, x, y, epoch, seq, pair=None, mask=None):
-        self.learn(x, y, mask)
-        self.pairs.append(x, y, pair, mask)
-        self.epoch, self.seq = epoch, seq
+    def incorporate(self, pair: TrainingPair):
+        self.learn(pair.x, pair.y, pair.mask)
+        self.pairs.append(pair)
+        self.epoch, self.seq = pair.epoch, pair.seq
         self.counts["learned"] += 1
 
     def on_pair(self, pair: TrainingPair):
@@ -73,7 +73,7 @@ class LearnerNode:
             return
         if pair.seq > self.seq + 1:
             self.fill_gap(pair.seq - 1)
-        self.incorporate(pair.x, pair.y, pair.epoch, pair.seq, pair, pair.mask)
+        self.incorporate(pair)
 
     def confirmed(self, pair: TrainingPair) -> bool:
         """Whether the arbitrator's recent pairs hold this very pair (its epoch, seq and input). At most
@@ -96,7 +96,7 @@ class LearnerNode:
             return
         for i, (x, y, mask) in enumerate(zip(batch.x, batch.y, batch.mask)):
             seq, mask = first + i, None if np.all(mask == 1) else mask
-            self.incorporate(x, y, self.epoch, seq, TrainingPair(self.epoch, seq, -1, x, y, "gap-fill", mask), mask)
+            self.incorporate(TrainingPair(self.epoch, seq, -1, x, y, "gap-fill", mask))
         self.counts["gap_filled"] += len(batch.x)
 
     def query(self, key, cls, parameters="", timeout=5.0):
@@ -115,9 +115,8 @@ class LearnerNode:
 
     # --- warming ----------------------------------------------------------------------------
     def replay(self, pairs: list[TrainingPair]):
-        for p in pairs:
+        for p in pairs:  # already in the pair log
             self.learn(p.x, p.y, p.mask)
-            self.pairs.append(p.x, p.y, mask=p.mask)
             self.epoch, self.seq = p.epoch, p.seq
         self.counts["replayed"] = len(pairs)
 
@@ -159,7 +158,7 @@ class LearnerNode:
         first = snap.seq - len(history.x) + 1
         for i, (x, y, mask) in enumerate(zip(history.x, history.y, history.mask)):
             mask = None if np.all(mask == 1) else mask
-            self.pairs.append(x, y, TrainingPair(snap.epoch, first + i, -1, x, y, "history", mask), mask)
+            self.pairs.append(TrainingPair(snap.epoch, first + i, -1, x, y, "history", mask))
         self.epoch, self.seq = snap.epoch, snap.seq
         self.counts["warmed"] = len(history.x)
         self.log.info("warmed from %s by %s (up to seq %d of epoch %s)", old, how, snap.seq, snap.epoch)
@@ -190,8 +189,7 @@ class LearnerNode:
         upto = params.get("upto")
         if upto is not None and params.get("epoch") == self.epoch:
             n -= max(0, self.seq - int(upto))  # the rows learned after `upto`
-        query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, self.pairs.x[:n],
-                                          self.pairs.y[:n], self.pairs.mask[:n])))
+        query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, *self.pairs.history(n))))
 
     def status(self):
         counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs))

@@ -50,11 +50,15 @@ class PlatformLoop:
         self.n_unanswered = 0
         self.mode = ""
 
-    def publish_input(self):
+    def next_tick(self) -> int:
+        """A new tick: the oldest one leaves the answer window."""
         self.tick += 1
-        self.input_pub.put(encode(Input(self.tick, time.time(), self.platform.observe())))
-        self.counts["inputs"] += 1
         self._settle(self.tick - ANSWER_WINDOW)
+        return self.tick
+
+    def publish_input(self):
+        self.input_pub.put(encode(Input(self.next_tick(), time.time(), self.platform.observe())))
+        self.counts["inputs"] += 1
 
     def _settle(self, tick: int) -> None:
         """A tick leaves the window: answered or not, for good (memory stays bounded on long runs)."""

@@ -130,7 +130,8 @@ class LWPR(Learner):
             as_vector(x, self.n_in, "inputs")  # raises with the right message
             as_vector(y, self.n_out, "outputs")
         if self._input_scale is not None:
-            x = x * self._input_scale
+            with np.errstate(over="ignore"):  # an overflow is refused below, with its reason
+                x = x * self._input_scale
         kernels = _loaded_kernels or _kernels()
         status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
         while status == 1:
@@ -145,20 +146,28 @@ class LWPR(Learner):
         xs = kernel_ready(as_matrix(xs, self.n_in, "inputs"))
         ys = kernel_ready(as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0]))
         if self._input_scale is not None:
-            xs = xs * self._input_scale
+            with np.errstate(over="ignore"):
+                xs = xs * self._input_scale
+            if not np.isfinite(xs).all():  # every row checked before any is learned
+                row = int(np.argmin(np.isfinite(xs).all(axis=1)))
+                self._reject(-1 - int(np.argmin(np.isfinite(xs[row]))), xs[row], ys[row])
         kernels = _kernels()
         row = 0
         while row < xs.shape[0]:
             status, row = kernels.learn_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs, ys, row)
             if status == 1:
                 self._grow()
+            elif status < 0:  # a row the kernel refused: never retried for ever
+                self._n_learned += row
+                self._reject(status, xs[row], ys[row])
         self._taught.learn(ys)
         self._n_learned += xs.shape[0]
 
     def _reject(self, status: int, x: np.ndarray, y: np.ndarray) -> None:
         index = -status - 1
         if index < self.n_in:
-            raise LearnerInputError(f"input {index} is {x[index]}; learners need finite numbers")
+            scaled = "" if self._input_scale is None else f" once divided by norm_in ({self.norm_in!r})"
+            raise LearnerInputError(f"input {index} is {x[index]}{scaled}; learners need finite numbers")
         index -= self.n_in
         raise LearnerInputError(f"output {index} is {y[index]}; learners need finite numbers")
 

@@ -1,0 +1,75 @@
+"""The platform box's tick accounting on a fake bus, with a real platform behind it: the answer window
+stays bounded and exact, late commands count as stale, commands for ticks never published are
+rejected, and with the camera as the tick (the Aibo's --input camera) ticks are settled as any others."""
+import logging
+import time
+
+import numpy as np
+import pytest
+
+from bus_schema import Command, Frame, InstanceKeys, Input, RobotKeys, decode, encode
+from services.boxes import platform as box
+from services.boxes.aibo import AiboLoop
+from services.platforms import make_platform
+from tests.fakebus import FakeSession
+
+KEYS = InstanceKeys("main")
+LOG = logging.getLogger("test.platform")
+
+
+def command(tick: int, dims: int) -> bytes:
+    return encode(Command(tick, time.time(), np.zeros(dims), "teacher", "teacher/t", 1.0))
+
+
+def run(loop, ticks: int, unanswered=(), late=()):
+    """Publishes `ticks` inputs; answers each at once, except the unanswered and the late (answered
+    after the next input went out)."""
+    dims = loop.dims
+    for tick in range(1, ticks + 1):
+        loop.publish_input()
+        if tick - 1 in late:
+            loop.on_command(KEYS.command, command(tick - 1, dims))
+        if tick not in unanswered and tick not in late:
+            loop.on_command(KEYS.command, command(tick, dims))
+    return loop.summary()
+
+
+@pytest.fixture
+def point():
+    with make_platform("point", dims=2) as robot:
+        yield robot
+
+
+def test_the_answer_window_is_exact_and_bounded(point, monkeypatch):
+    monkeypatch.setattr(box, "ANSWER_WINDOW", 5)
+    bus = FakeSession()
+    loop = box.PlatformLoop(bus, KEYS, point, LOG)
+    summary = run(loop, 10_000, unanswered=(3, 17, 9_999))
+    assert (summary["ticks"], summary["answered"], summary["unanswered"]) == (10_000, 9_997, 3)
+    assert summary["first_unanswered"] == [3, 17, 9_999]
+    assert len(loop.answered) <= 5 and loop.status()[0]["lost_ticks"] == 2  # 9_999 is still in the window
+    assert [decode(Input, p, KEYS.input).tick for p in bus.on(KEYS.input)] == list(range(1, 10_001))
+
+
+def test_late_commands_count_as_stale_and_commands_for_unpublished_ticks_are_rejected(point):
+    loop = box.PlatformLoop(FakeSession(), KEYS, point, LOG)
+    summary = run(loop, 50, late=(10, 20))
+    assert summary["unanswered"] == 0 and loop.counts["stale_commands"] == 2
+    for hostile in (0, 51, 10**9):
+        loop.on_command(KEYS.command, command(hostile, loop.dims))
+    assert loop.rejects.total == 3 and loop.counts["commands"] == 50 and loop.latest.tick == 50
+
+
+def test_camera_ticks_are_settled_like_any_other(monkeypatch):
+    """With the camera as the tick the window was never settled: after 1,000 ticks the unanswered count
+    went negative and the answered set grew for ever."""
+    monkeypatch.setattr(box, "ANSWER_WINDOW", 5)
+    bus = FakeSession()
+    robot_keys = RobotKeys("aibo")
+    with make_platform("aibo", command="move") as aibo:
+        loop = AiboLoop(bus, KEYS, robot_keys, aibo, LOG, "aibo", "camera", 0.0)
+        summary = run(loop, 40, unanswered=(4,))
+    assert (summary["answered"], summary["unanswered"], summary["first_unanswered"]) == (39, 1, [4])
+    assert len(loop.answered) <= 5 and loop.status()[0]["lost_ticks"] == 1
+    assert bus.on(KEYS.input) == [], "perception, not the robot, publishes the input"
+    assert [decode(Frame, p, robot_keys.camera).tick for p in bus.on(robot_keys.camera)] == list(range(1, 41))
