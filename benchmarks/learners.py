@@ -15,11 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
-# Run as a script, Python puts benchmarks/ first on the path, where a sibling module can
-# shadow the standard library (benchmarks/platform.py hides `platform`, which numpy needs).
-_HERE = Path(__file__).resolve().parent
-sys.path[:] = [entry for entry in sys.path if Path(entry or ".").resolve() != _HERE]
-sys.path.insert(0, str(_HERE.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import numpy as np  # noqa: E402

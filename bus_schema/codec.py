@@ -112,6 +112,3 @@ def decode(cls: type[T], raw: bytes, key: str, dims: dict[str, int] | None = Non
         check(key)
     return msg
 
-
-def field_names(cls) -> list[str]:
-    return [f.name for f in dc_fields(cls)]

@@ -28,7 +28,6 @@ class InstanceKeys:
         self.spaces = f"{p}/spaces"
         self.proposals = f"{p}/proposal/**"
         self.alive_all = f"{p}/alive/**"
-        self.status_all = f"{p}/status/**"
 
     def proposal(self, role: str, name: str) -> str:
         return f"{self.prefix}/proposal/{role}/{name}"

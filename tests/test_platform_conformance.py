@@ -85,3 +85,16 @@ def test_checker_rejects_a_settle_time_beyond_the_bound():
 def test_spaces_round_trip_used_by_checker():
     spaces = Spaces(Box.uniform(2, -1, 1, "x"), Box.uniform(1, 0, 1, "u"), {"k": 1})
     assert Spaces.from_dict(spaces.to_dict()) == spaces
+
+
+def test_checker_names_what_a_platform_lacks_of_the_contract():
+    from services.platforms.checks import check_spaces_declared_as_data
+
+    class NoWatchdog:  # a platform with no hold(): the watchdog would have nothing to call
+        def __init__(self, seed=0):
+            self.inner = PointPlatform(dims=2, seed=seed)
+            self.spaces = self.inner.spaces
+            self.reset, self.observe, self.step, self.close = (self.inner.reset, self.inner.observe,
+                                                               self.inner.step, self.inner.close)
+    with pytest.raises(AssertionError, match="NoWatchdog lacks hold of the Platform contract"):
+        check_spaces_declared_as_data(NoWatchdog)

@@ -18,6 +18,7 @@ import zenoh
 
 from bus_schema import (Command, InstanceKeys, Input, PairBatch, Proposal, SelectLearner, TrainingPair, decode,
                         encode)
+from services.arbitration.algorithm2 import decide, trains
 from services.arbitration.strategies import STRATEGIES, make_strategy
 from services.arbitration.ticks import TickTable
 from services.boxes.common import Membership, fetch_spaces
@@ -160,16 +161,15 @@ class Arbitrator:
             mine = f"learner/{learner}"
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
             defaults = self.speaking(entry, "default", "default")
-            d = self.strategy.decide(teachers, learner_p, defaults[0] if defaults else None, self.last_command)
-            y = self.output_space.clip(d.y)
-            if not np.array_equal(y, d.y):
-                self.counts["clipped_commands"] += 1
-            self.last_command = y
-            self.command_pub.put(encode(Command(entry.tick, entry.stamp, y, d.mode, d.source, d.confidence)))
+            d, clipped = decide(self.strategy, teachers, learner_p, defaults[0] if defaults else None,
+                                self.last_command, self.output_space)
+            self.counts["clipped_commands"] += clipped
+            self.last_command = d.y
+            self.command_pub.put(encode(Command(entry.tick, entry.stamp, d.y, d.mode, d.source, d.confidence)))
             self.counts["commands"] += 1
             self.counts[f"mode_{d.mode}"] += 1
-            if d.train or self.train_on == "all":
-                self.publish_pair(entry.tick, entry.x, y, d.source, d.mask)
+            if trains(d, self.train_on):
+                self.publish_pair(entry.tick, entry.x, d.y, d.source, d.mask)
 
     def publish_pair(self, tick, x, y, source, mask=None):
         self.seq += 1

@@ -18,6 +18,7 @@ import zenoh
 
 from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, Snapshot, TrainingPair, decode,
                         encode)
+from services.arbitration.algorithm2 import learn_pair
 from services.boxes.common import fetch_spaces
 from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, ask_owner, config_from_args,
                           decode_or_reject, sensor_publisher, setup_logging)
@@ -39,13 +40,8 @@ class LearnerNode:
 
     # --- learning ---------------------------------------------------------------------------
     def learn(self, x, y, mask) -> None:
-        """A partial teacher's pair trains only the outputs it taught, where the learner can do that."""
-        if mask is not None and not np.all(mask == 1) and getattr(self.model, "accepts_mask", False):
-            self.model.learn_one(x, y, mask=mask)
-        else:
-            if mask is not None and not np.all(mask == 1):
-                self.counts["partial_pairs_learned_whole"] += 1  # see docs/results.md: use per-output
-            self.model.learn_one(x, y)
+        if not learn_pair(self.model, x, y, mask):
+            self.counts["partial_pairs_learned_whole"] += 1
 
     def incorporate(self, pair: TrainingPair):
         self.learn(pair.x, pair.y, pair.mask)

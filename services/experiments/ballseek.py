@@ -107,7 +107,8 @@ class BallWorld:
                 on_tick(self, t)
             x = self.observe()
             on = teacher is not None and (user is None or user.teaching(self.clock + t, unsure))
-            decision, y_hat, confidence = tick(x, [("teacher/ballseek", teacher)] if on else [], learner)
+            decision, y_hat, confidence = tick(x, [("teacher/ballseek", teacher)] if on else [], learner,
+                                               output_space=self.spaces.output)
             unsure = decision.mode == "unsure"
             if trace is not None:
                 trace.add(self.clock + t, x, decision, y_hat, confidence)

@@ -1,8 +1,7 @@
 """One tick of Algorithm 2 in a single process, and the trace a run records.
 
-The tick asks the active teachers and the learner, lets the arbitration strategy choose, and
-trains the learner when the strategy says so: exactly what the arbitrator and learner services
-do over the bus, without the bus.
+The tick asks the active teachers and the learner, then steps 5 and 6 are the very functions the
+arbitrator and learner boxes call over the bus (services.arbitration.algorithm2).
 """
 from __future__ import annotations
 
@@ -12,11 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema import Proposal
+from services.arbitration.algorithm2 import decide, learn_pair, trains
 from services.arbitration.strategies import Decision, TeacherFirst
 
 
 def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.ndarray | None = None,
-         index: int = 0) -> tuple[Decision, np.ndarray, float]:
+         index: int = 0, output_space=None) -> tuple[Decision, np.ndarray, float]:
     """Algorithm 2, steps 3-6. `teachers`: (name, teacher) pairs switched on now. Returns the
     decision and the student's own prediction (y_hat, confidence) before it learned this tick."""
     strategy = strategy or TeacherFirst()
@@ -30,13 +30,9 @@ def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.nda
     student = ("learner/student", Proposal(index, "learner/student", predicted.y, float(predicted.confidence)))
     if fallback is None:
         fallback = np.zeros(learner.n_out)
-    decision = strategy.decide(proposals, student, None, fallback)
-    if decision.train:
-        # as the learner service does: a partial teacher's pair trains only its outputs when it can
-        if decision.mask is None or not getattr(learner, "accepts_mask", False):
-            learner.learn_one(x, decision.y)
-        else:
-            learner.learn_one(x, decision.y, mask=decision.mask)
+    decision, _ = decide(strategy, proposals, student, None, fallback, output_space)
+    if trains(decision):
+        learn_pair(learner, x, decision.y, decision.mask)
     return decision, predicted.y, float(predicted.confidence)
 
 

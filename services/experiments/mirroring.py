@@ -49,7 +49,8 @@ class MirrorRun:
             x = self.platform.observe()
             on = user is None or user.teaching(now, self._unsure())
             active = list(teachers.items()) if on else []
-            decision, y_hat, confidence = tick(x, active, self.learner, fallback=x, index=len(self.trace.t))
+            decision, y_hat, confidence = tick(x, active, self.learner, fallback=x, index=len(self.trace.t),
+                                               output_space=self.platform.spaces.output)
             if record:
                 self.trace.add(now, x, decision, y_hat, confidence)
             self.platform.step(decision.y, dt)

@@ -1,6 +1,7 @@
 """The platform contract (Gymnasium's habit): a tiny interface, spaces declared as data.
 
-A platform is plain Python with no bus in it; `services.platforms.service` puts one on Zenoh.
+A platform is plain Python with no bus in it; `services.boxes.platform` puts one on Zenoh, and
+services/platforms/checks.py (the conformance suite) holds every registered platform to this.
 """
 from __future__ import annotations
 
@@ -13,10 +14,10 @@ from bus_schema.spaces import Spaces
 
 @runtime_checkable
 class Platform(Protocol):
+    """Optional attribute hold_settle_seconds: the seconds hold() may take to bring the robot to rest (a
+    walking robot puts its feet down), at most checks.MAX_HOLD_SETTLE_SECONDS; 0 if absent."""
+
     spaces: Spaces
-    # optional: seconds hold() may take to bring the robot to rest (a walking robot puts its feet
-    # down), at most MAX_HOLD_SETTLE_SECONDS; 0 if absent: still from the first held step
-    hold_settle_seconds: float
 
     def reset(self, seed: int | None = None) -> np.ndarray:
         """Start an episode; returns the first input (shape spaces.input.dims)."""

@@ -12,6 +12,7 @@ from contextlib import closing
 import numpy as np
 
 from bus_schema.spaces import Box, Spaces
+from services.platforms.base import Platform
 
 DT = 0.05  # seconds per step: a 20 Hz control loop is slow enough for any platform to respond
 STEPS = 20
@@ -37,6 +38,9 @@ def _assert_input(platform, x, what: str) -> None:
 
 def check_spaces_declared_as_data(platform_factory: Callable) -> None:
     with closing(platform_factory(seed=0)) as platform:
+        missing = [m for m in ("spaces", "reset", "observe", "step", "hold", "close") if not hasattr(platform, m)]
+        assert isinstance(platform, Platform), f"{type(platform).__name__} lacks {', '.join(missing) or 'part'} of " \
+                                               "the Platform contract (services/platforms/base.py)"
         spaces = platform.spaces
         assert isinstance(spaces, Spaces), f"platform.spaces is {type(spaces).__name__}; declare a bus_schema.spaces.Spaces"
         for side in ("input", "output"):
@@ -148,7 +152,3 @@ ALL_CHECKS = (
     check_seeded_determinism,
 )
 
-
-def run_all(platform_factory: Callable) -> None:
-    for check in ALL_CHECKS:
-        check(platform_factory)

@@ -23,7 +23,6 @@ class ManagedProcess:
         self.state = "new"           # starting | ready | backoff | failed | exited | stopped
         self.restarts = 0
         self.started_at = 0.0
-        self.ready_at = 0.0
         self.restart_at = 0.0
         self.died_at = 0.0  # when the supervisor saw it exit (monotonic)
         self.last_exit: int | str | None = None  # an exit code, or "not ready" (stopped at its ready_timeout_s)
@@ -40,7 +39,7 @@ class ManagedProcess:
         # a new session: a Ctrl-C in the terminal reaches the supervisor only, which stops services in order
         self.proc = subprocess.Popen(self.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                      stdin=subprocess.DEVNULL, env=env, start_new_session=True)
-        self.state, self.started_at, self.ready_at = "starting", time.monotonic(), 0.0
+        self.state, self.started_at = "starting", time.monotonic()
         self._line(f"--- started pid {self.proc.pid}: {' '.join(self.command)}")
         threading.Thread(target=self._pump, args=(self.proc,), daemon=True).start()
 

@@ -99,7 +99,7 @@ class Supervisor:
                     proc.command = self.restart_command(proc)
                 proc.start()
             if proc.state == "starting" and proc.ready_key in self.alive and proc.pid:
-                proc.state, proc.ready_at = "ready", now
+                proc.state = "ready"
             elif proc.state == "starting" and now - proc.started_at > proc.spec.ready_timeout_s:
                 awaiting = [s.name for s in self.waiting if proc.spec.name in s.after]
                 log.error("%s did not become ready within %g s (no token %s)%s: stopped; its log: %s",
@@ -303,7 +303,7 @@ class Supervisor:
             held.append(session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"),
                                                                 history=True))
             # the router's own token: a restarted router is ready again once it is back
-            self.procs["router"].state, self.procs["router"].ready_at = "ready", time.monotonic()
+            self.procs["router"].state = "ready"
             self.procs["router"].ready_key = router_token(prof.name)
             held.append(session.liveliness().declare_subscriber(router_token(prof.name), self.inbox.callback("alive"),
                                                                 history=True))

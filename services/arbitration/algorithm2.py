@@ -1,0 +1,43 @@
+"""Algorithm 2, steps 5 and 6, written once: the arbitrator and learner boxes call these over the bus,
+the in-process experiments (services.experiments.loop) call them directly.
+
+Step 5: the strategy picks the output, clipped to the output space (every command, and so every pair
+learned, is). Step 6: the learner trains on the pair when a teacher spoke (or on every pair with
+train_on "all", the algorithm taken literally); a partial teacher's pair trains only the outputs it
+taught, where the learner can do that.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from services.arbitration.strategies import Decision
+
+
+def decide(strategy, teachers, learner, default, fallback: np.ndarray, output_space=None) -> tuple[Decision, bool]:
+    """The strategy's decision with its output clipped to `output_space` (a Box, or None), and whether
+    clipping changed it."""
+    decision = strategy.decide(teachers, learner, default, fallback)
+    if output_space is None:
+        return decision, False
+    y = output_space.clip(decision.y)
+    if np.array_equal(y, decision.y):
+        return decision, False
+    return dataclasses.replace(decision, y=y), True
+
+
+def trains(decision: Decision, train_on: str = "teacher") -> bool:
+    """Whether the tick's (x, y) goes to the learners."""
+    return decision.train or train_on == "all"
+
+
+def learn_pair(model, x, y, mask=None) -> bool:
+    """The learner's share of step 6. False when a partial pair had to be learned whole (the learner
+    takes no mask: see docs/results.md, use per-output)."""
+    partial = mask is not None and not np.all(mask == 1)
+    if partial and getattr(model, "accepts_mask", False):
+        model.learn_one(x, y, mask=mask)
+        return True
+    model.learn_one(x, y)
+    return not partial
