@@ -7,7 +7,6 @@ SchemaError naming the key and the field.
 from __future__ import annotations
 
 import math
-from dataclasses import fields as dc_fields
 from typing import Any, TypeVar
 
 import msgpack

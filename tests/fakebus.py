@@ -16,9 +16,28 @@ class FakePublisher:
         self.bus.published.append((self.key, bytes(payload)))
 
 
+class FakeReply:
+    def __init__(self, payload: bytes):
+        self.ok, self.err = types.SimpleNamespace(payload=types.SimpleNamespace(to_bytes=lambda: payload)), None
+
+
 class FakeSession:
     def __init__(self):
         self.published: list[tuple[str, bytes]] = []
+        self.answerers: dict[str, object] = {}  # key -> answer(parameters: dict) -> payload or None
+        self.asked: list[str] = []
+
+    def answer(self, key: str, answerer) -> None:
+        """Someone answers queries on `key`: answerer(parameters) -> payload bytes, or None (no reply)."""
+        self.answerers[key] = answerer
+
+    def get(self, selector: str, **_options):
+        self.asked.append(selector)
+        key, _, query = selector.partition("?")
+        parameters = dict(item.split("=", 1) for item in query.split(";") if item)
+        answerer = self.answerers.get(key)
+        payload = answerer(parameters) if answerer else None
+        return [] if payload is None else [FakeReply(payload)]
 
     def declare_publisher(self, key: str, **_qos) -> FakePublisher:
         return FakePublisher(self, str(key))

@@ -59,8 +59,10 @@ def test_swap_learners_during_200hz_run(tmp_path):
         time.sleep(2.5)  # two status periods: the final counters are out
         counts = json.loads(summary.read_text())
         assert counts["ticks"] == TICKS
-        print(f"unanswered ticks before the loop was up (tick {loop_up_tick}): {counts['first_unanswered']}")
-        assert [t for t in counts["first_unanswered"] if t >= loop_up_tick] == [], counts
+        print(f"unanswered ticks before the loop was up (tick {loop_up_tick}): {counts['unanswered']}, "
+              f"the last of them {counts['last_unanswered'][-5:]}")
+        # the latest unanswered ticks: past 1,000 start-up misses, the first 1,000 alone would hide a later one
+        assert max(counts["last_unanswered"], default=0) < loop_up_tick, counts
         assert probe.counter("arbitrator/arbitrator", "swaps") == 3
         published = probe.state("arbitrator/arbitrator", "seq")
         assert published == probe.counter("arbitrator/arbitrator", "train_pairs") > 0.9 * TICKS

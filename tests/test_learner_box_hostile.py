@@ -1,32 +1,26 @@
 """Valid-but-hostile values at the learner service (issue 12): a training pair whose seq jumps by a
 billion, and history queries with bad parameters. Rejected, counted, and learning goes on."""
-import collections
 import logging
 import math
 
 import numpy as np
 import zenoh
 
-from bus_schema import InstanceKeys, PairBatch, TrainingPair
+from bus_schema import InstanceKeys, TrainingPair
+from bus_schema.spaces import Box
 from services.boxes.learner import LearnerNode, history_query_problem
-from services.bus import Rejects
 from services.learners import make_learner
 from services.pairlog import PairLog
+from tests.fakebus import FakeSession
+from tests.test_learner_box import Recent
 
 
 def node(recent: dict | None = None) -> LearnerNode:
-    """The learner service's logic with the bus replaced: `recent` are the arbitrator's pairs by seq."""
-    n = LearnerNode.__new__(LearnerNode)
-    n.model, n.pairs, n.log, n.name = make_learner("knn", 2, 1), PairLog(2, 1, None), logging.getLogger("t"), "learner"
-    n.keys, n.rejects, n.counts, n.epoch, n.seq = InstanceKeys("main"), Rejects(n.log), collections.Counter(), "", 0
-    n.dims, n._last_confirm = {"x": 2, "y": 1, "mask": 1}, -math.inf
-
-    def query(key, cls, parameters="", timeout=5.0):
-        seq = int(dict(p.split("=") for p in parameters.split(";"))["from"])
-        pair = (recent or {}).get(seq)
-        return None if pair is None else PairBatch(pair.epoch, seq, pair.x[None], pair.y[None], np.ones((1, 1)))
-    n.query = query
-    return n
+    """The learner box on a fake bus: `recent` are the arbitrator's pairs by seq."""
+    bus, keys = FakeSession(), InstanceKeys("main")
+    bus.answer(keys.train_recent, Recent(*(recent or {}).values()))
+    return LearnerNode(bus, keys, "learner", make_learner("knn", 2, 1), PairLog(2, 1), logging.getLogger("t"),
+                       Box((-1.0,), (1.0,)))
 
 
 def pair(seq, epoch="e1"):

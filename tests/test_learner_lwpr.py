@@ -25,9 +25,17 @@ def test_fields_never_exceed_max_rfs_per_output():
 
 
 def test_snapshot_holds_only_used_slots():
+    """One field in use of the four slots allocated: only it travels (the bound was ten times an
+    untrimmed snapshot, so it could not fail)."""
+    from services.learners import lwpr_layout
+
     model = make_learner("lwpr", 3, 1)
     model.learn_many(np.zeros((5, 3)), np.zeros((5, 1)))
-    assert len(model.snapshot()) < 40_000
+    field_bytes = 8 * lwpr_layout.floats_per_rf(3)
+    assert model.rfs_per_output == [1] and model._rfs.shape[1] >= 4  # 4 slots, 1 used
+    assert len(model.snapshot()) < 2 * field_bytes, (len(model.snapshot()), field_bytes)
+    restored = type(model).restore(model.snapshot())
+    assert restored.rfs_per_output == [1] and restored.predict_one(np.zeros(3)).y == model.predict_one(np.zeros(3)).y
 
 
 def test_stale_kernel_cache_is_dropped_once(tmp_path):

@@ -46,9 +46,18 @@ def test_the_answer_window_is_exact_and_bounded(point, monkeypatch):
     loop = box.PlatformLoop(bus, KEYS, point, LOG)
     summary = run(loop, 10_000, unanswered=(3, 17, 9_999))
     assert (summary["ticks"], summary["answered"], summary["unanswered"]) == (10_000, 9_997, 3)
-    assert summary["first_unanswered"] == [3, 17, 9_999]
+    assert summary["first_unanswered"] == summary["last_unanswered"] == [3, 17, 9_999]
     assert len(loop.answered) <= 5 and loop.status()[0]["lost_ticks"] == 2  # 9_999 is still in the window
     assert [decode(Input, p, KEYS.input).tick for p in bus.on(KEYS.input)] == list(range(1, 10_001))
+
+
+def test_a_miss_after_a_thousand_start_up_misses_still_shows(point, monkeypatch):
+    """The hot-swap test's check looked only at the first 1,000 unanswered ticks."""
+    monkeypatch.setattr(box, "ANSWER_WINDOW", 5)
+    loop = box.PlatformLoop(FakeSession(), KEYS, point, LOG)
+    summary = run(loop, 3_000, unanswered=(*range(1, 1_501), 2_500))
+    assert summary["unanswered"] == 1_501 and max(summary["first_unanswered"]) == 1_000
+    assert summary["last_unanswered"][-1] == 2_500 and len(summary["last_unanswered"]) == 1_000
 
 
 def test_late_commands_count_as_stale_and_commands_for_unpublished_ticks_are_rejected(point):

@@ -47,6 +47,7 @@ class PlatformLoop:
         self.recent_latency = collections.deque(maxlen=4000)  # (arrival monotonic, latency s)
         self.answered: set[int] = set()       # ticks still in the window that got a command
         self.n_answered, self.unanswered = 0, []  # ticks that left the window (first 1000 misses kept)
+        self.last_unanswered = collections.deque(maxlen=1000)  # and the latest 1000: no late miss hides
         self.n_unanswered = 0
         self.mode = ""
 
@@ -69,6 +70,7 @@ class PlatformLoop:
             self.n_answered += 1
         else:
             self.n_unanswered += 1
+            self.last_unanswered.append(tick)
             if len(self.unanswered) < 1000:
                 self.unanswered.append(tick)
 
@@ -115,11 +117,13 @@ class PlatformLoop:
 
     def summary(self) -> dict:
         window = range(max(1, self.tick - ANSWER_WINDOW + 1), self.tick + 1)
-        missing = self.unanswered + [t for t in window if t not in self.answered]
+        in_window = [t for t in window if t not in self.answered]
         answered = self.n_answered + len(self.answered)
         return {"ticks": self.tick, "commands": self.counts["commands"], "answered": answered,
-                "unanswered": self.n_unanswered + len(window) - len(self.answered),
-                "first_unanswered": missing[:1000], "held": self.counts["held"], "rejected": self.rejects.total}
+                "unanswered": self.n_unanswered + len(in_window),
+                "first_unanswered": (self.unanswered + in_window)[:1000],
+                "last_unanswered": (list(self.last_unanswered) + in_window)[-1000:],
+                "held": self.counts["held"], "rejected": self.rejects.total}
 
     def status(self):
         since = time.monotonic() - LATENCY_WINDOW_S

@@ -38,26 +38,7 @@ def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parame
     return cls(n_in, n_out, seed=seed, **hyper_parameters)
 
 
-def warm_up() -> float:
-    """Compile (or load from numba's cache) every learner's kernels; returns the seconds taken.
-
-    A service calls this before it goes live so that the first real sample is not slow."""
-    import time
-
-    import numpy as np
-
-    start = time.perf_counter()
-    xs = np.random.default_rng(0).uniform(-1.0, 1.0, (4, 2))
-    for cls in LEARNERS.values():
-        model = cls(2, 1)
-        model.learn_one(xs[0], xs[0, :1])  # varied targets: a GP builds its factor only once they vary
-        model.learn_many(xs[1:], xs[1:, :1])
-        model.predict_one(xs[0])
-        model.predict_many(xs)
-    return time.perf_counter() - start
-
-
 __all__ = [
     "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction", "Predictions",
-    "SOGP", "UnknownLearnerError", "make_learner", "warm_up",
+    "SOGP", "UnknownLearnerError", "make_learner",
 ]
