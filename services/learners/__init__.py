@@ -11,32 +11,15 @@ from __future__ import annotations
 
 from .base import Learner, Prediction, Predictions
 from .errors import LearnerInputError, UnknownLearnerError
-from .gp import GP
+from .gp import GP  # each learner module registers its learner (services/learners/registry.py)
 from .knn import KNN
 from .lwpr import LWPR
 from .per_output import PerOutput
+from .registry import LEARNERS, make_learner
 from .sogp import SOGP
 
 # the learner the system is wired with (deploy profiles, experiments, demo, the learner box)
 DEFAULT_LEARNER = "gp"
-
-LEARNERS: dict[str, type[Learner]] = {"lwpr": LWPR, "sogp": SOGP, "knn": KNN, "gp": GP, "per-output": PerOutput}
-
-
-def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parameters) -> Learner:
-    """Build a registered learner; unknown names raise UnknownLearnerError (a KeyError),
-    unknown or invalid hyper-parameters a ValueError naming the parameter."""
-    try:
-        cls = LEARNERS[name]
-    except KeyError:
-        known = ", ".join(sorted(LEARNERS))
-        raise UnknownLearnerError(f"unknown learner {name!r}; known learners: {known}") from None
-    accepted = cls.param_names()
-    for key in hyper_parameters:
-        if key not in accepted:
-            raise ValueError(f"unknown hyper-parameter {key!r} for {name}; accepted: {', '.join(accepted)}")
-    return cls(n_in, n_out, seed=seed, **hyper_parameters)
-
 
 __all__ = [
     "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction", "Predictions",

@@ -37,6 +37,7 @@ from . import gp_kernels
 from .base import Learner, Predictions, check_positive, check_range, kernel_ready
 from .gp_evidence import Hyper, first_hyper, fit_memory, linear_share
 from .novelty import InputEnvelope
+from .registry import register
 
 # refit early once the mean squared standardised error of the last taught ticks passes SURPRISED
 # (typical errors of two standard deviations), at most every SURPRISE_REFIT_GAP samples, and each
@@ -337,3 +338,6 @@ class GP(Learner):
             state[name] = getattr(self, name)[:m].copy()
         state["_chol"] = self._chol[:m, :m].copy()
         return state
+
+
+register("gp", GP)

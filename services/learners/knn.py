@@ -14,6 +14,7 @@ import numpy as np
 
 from .base import Learner, Predictions, check_positive
 from .novelty import InputEnvelope
+from .registry import register
 
 _CHUNK = 512  # rows per distance block in predict_many: bounds its temporary memory
 
@@ -102,3 +103,6 @@ class KNN(Learner):
         spread = np.sqrt(np.einsum("rk,rko->ro", weights, (neighbours - y[:, None, :]) ** 2))
         confidence = np.exp(-0.5 * (dist.min(1) / self._scale) ** 2)
         return y, confidence, spread
+
+
+register("knn", KNN)

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import lwpr_layout as layout
 from .base import (
     Learner, Prediction, Predictions, as_matrix, as_vector, check_positive, check_range, kernel_ready,
 )
 from .errors import LearnerInputError
-from . import lwpr_layout as layout
+from .registry import register
 
 _INITIAL_SLOTS = 4
 _new_tuple = tuple.__new__
@@ -225,3 +226,6 @@ class LWPR(Learner):
     def __setstate__(self, state: dict) -> None:
         super().__setstate__(state)
         self._hp = self._hyper_parameter_vector()  # the kernels' layout of this version
+
+
+register("lwpr", LWPR)

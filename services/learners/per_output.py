@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Learner, Prediction, Predictions, as_vector
+from .registry import LEARNERS, make_learner, register
 
 
 class PerOutput(Learner):
@@ -17,7 +18,6 @@ class PerOutput(Learner):
 
     def __init__(self, n_in: int, n_out: int, seed: int = 0, base: str = "lwpr", params: dict | None = None):
         super().__init__(n_in, n_out, seed)
-        from . import LEARNERS, make_learner  # the registry imports this module
         if base not in LEARNERS or base == "per-output":
             raise ValueError(f"base must be a registered single learner, got {base!r}")
         self.base, self.params = base, dict(params or {})
@@ -68,3 +68,6 @@ class PerOutput(Learner):
     @classmethod
     def _unit_test_params(cls) -> dict:
         return {"base": "knn", "params": {"max_points": 300}}
+
+
+register("per-output", PerOutput)

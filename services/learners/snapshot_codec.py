@@ -30,16 +30,19 @@ class SnapshotError(ValueError):
     """Bytes that are not a learner snapshot this version may load."""
 
 
+_ALLOWED: dict[str, type] = {}  # filled by services.learners when it registers its learners
+
+
+def allow(*classes: type) -> None:
+    """Classes any snapshot may name: services.learners registers its learners and their state classes."""
+    _ALLOWED.update({cls.__name__: cls for cls in classes})
+
+
 def state_classes(learner: type | None = None) -> dict[str, type]:
-    """Every class a snapshot may name: the registered learners, the state classes they keep, and the
-    learner class at hand with the state classes it declares (`Learner.state_classes`: a plug-in
-    learner with a state class of its own names it there)."""
-    from . import LEARNERS
-    from .base import TaughtRange
-    from .gp_evidence import Hyper
-    from .novelty import InputEnvelope
-    classes = {cls.__name__: cls for cls in LEARNERS.values()}
-    classes.update({cls.__name__: cls for cls in (TaughtRange, Hyper, InputEnvelope)})
+    """Every class a snapshot may name: those allowed (the registered learners and the state classes they
+    keep), and the learner class at hand with the state classes it declares (`Learner.state_classes`: a
+    plug-in learner with a state class of its own names it there)."""
+    classes = dict(_ALLOWED)
     if learner is not None:
         classes.update({cls.__name__: cls for cls in (learner, *learner.state_classes)})
     return classes
@@ -138,8 +141,7 @@ def _build(fields, known: dict):
     cls = known.get(name) if isinstance(name, str) else None
     if cls is None:
         raise SnapshotError(f"a snapshot holds arrays and learner state only, not {name!r}")
-    from .base import Learner
-    if issubclass(cls, Learner):
+    if callable(getattr(cls, "predict_one", None)):  # a learner (services.learners.base.Learner)
         for size in ("n_in", "n_out"):  # before a fresh learner of that size is built (Learner.__setstate__)
             n = state.get(size)
             if not (isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_VECTOR):
@@ -153,4 +155,4 @@ def _build(fields, known: dict):
     return value
 
 
-__all__ = ["FORMAT", "SnapshotError", "VERSION", "dump", "encode_value", "load", "state_classes"]
+__all__ = ["FORMAT", "SnapshotError", "VERSION", "allow", "dump", "encode_value", "load", "state_classes"]

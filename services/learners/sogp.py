@@ -17,6 +17,7 @@ import numpy as np
 
 from .base import Learner, Predictions, check_positive, kernel_ready
 from .novelty import InputEnvelope
+from .registry import register
 
 
 class SOGP(Learner):
@@ -70,3 +71,6 @@ def _kernels():
     from . import sogp_kernels  # first use compiles or loads from numba's cache
 
     return sogp_kernels
+
+
+register("sogp", SOGP)

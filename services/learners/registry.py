@@ -1,0 +1,36 @@
+"""The learner registry: each learner module registers its class by name; make_learner builds one.
+
+It imports no learner, so a learner that builds others by name (per-output) can use it.
+"""
+from __future__ import annotations
+
+from . import snapshot_codec
+from .base import TaughtRange
+from .errors import UnknownLearnerError
+from .gp_evidence import Hyper
+from .novelty import InputEnvelope
+
+LEARNERS: dict[str, type] = {}
+snapshot_codec.allow(TaughtRange, Hyper, InputEnvelope)  # the state classes learners share
+
+
+def register(name: str, cls: type) -> type:
+    """Registers a learner class under `name`; snapshots may name it and the state classes it declares."""
+    LEARNERS[name] = cls
+    snapshot_codec.allow(cls, *cls.state_classes)
+    return cls
+
+
+def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parameters):
+    """Build a registered learner; unknown names raise UnknownLearnerError (a KeyError),
+    unknown or invalid hyper-parameters a ValueError naming the parameter."""
+    try:
+        cls = LEARNERS[name]
+    except KeyError:
+        known = ", ".join(sorted(LEARNERS))
+        raise UnknownLearnerError(f"unknown learner {name!r}; known learners: {known}") from None
+    accepted = cls.param_names()
+    for key in hyper_parameters:
+        if key not in accepted:
+            raise ValueError(f"unknown hyper-parameter {key!r} for {name}; accepted: {', '.join(accepted)}")
+    return cls(n_in, n_out, seed=seed, **hyper_parameters)
