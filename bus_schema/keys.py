@@ -73,7 +73,21 @@ class RobotKeys:
 
 
 SUPERVISOR = "dogged/supervisor"
+ROUTER = "dogged/router"
+EVERY_ALIVE = "dl/*/alive/*/*"    # every member's liveliness token, in every instance (a supervisor's view)
+EVERY_STATUS = "dl/*/status/*/*"  # every service's status, in every instance
 
 
 def supervisor_key(profile: str, verb: str) -> str:
     return f"{SUPERVISOR}/{check_name('profile', profile)}/{verb}"
+
+
+def supervisor_token(profile: str) -> str:
+    """The liveliness token of a profile's supervisor; '*': any profile's."""
+    return f"{SUPERVISOR}/{profile if profile == '*' else check_name('profile', profile)}"
+
+
+def router_token(profile: str) -> str:
+    """The liveliness token a profile's router declares: one per profile, as the linked routers of several
+    machines share one bus."""
+    return f"{ROUTER}/{check_name('profile', profile)}"

@@ -7,8 +7,9 @@ import importlib
 import sys
 import time
 
-BOXES = {name: f"services.boxes.{name}" for name in ("router", "platform", "demonstrator", "learner", "arbitrator",
-                                                     "aibo", "perception", "handler", "chain")}
+from services.boxes import BOX_ROLES
+
+BOXES = {name: f"services.boxes.{name}" for name in BOX_ROLES}
 
 
 def run_box(argv: list[str]) -> int:

@@ -30,10 +30,6 @@ from pathlib import Path
 
 ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "operator",
          "supervisor", "router")
-# the box a supervisor profile names -> the role its certificate carries
-BOX_ROLES = {"aibo": "platform", "platform": "platform", "chain": "chain", "handler": "handler",
-             "perception": "perception", "demonstrator": "teacher", "learner": "learner",
-             "arbitrator": "arbitrator", "router": "router"}
 _IDENTITY = re.compile(r"^([a-z]+)\.([a-z0-9][a-z0-9_-]{0,63})$")
 
 # (what, key expressions, the roles that alone may do it); ACL message kinds of Zenoh 1.x

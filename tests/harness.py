@@ -11,7 +11,7 @@ from pathlib import Path
 
 import zenoh
 
-from bus_schema import Status, decode
+from bus_schema import EVERY_STATUS, Status, decode
 from services.bus import zenoh_config
 from services.supervisor.process import dump_stacks_then_kill
 
@@ -67,7 +67,7 @@ class Probe:
         self.status: dict[str, Status] = {}
         self.samples: dict[str, list] = {}
         self._lock = threading.Lock()
-        self.session.declare_subscriber("dl/*/status/*/*", self._on_status)
+        self.session.declare_subscriber(EVERY_STATUS, self._on_status)
 
     def _on_status(self, sample):
         try:

@@ -6,6 +6,7 @@ import logging
 import sys
 import time
 
+from bus_schema import supervisor_key
 from services.supervisor.profile import Profile, ServiceSpec
 from services.supervisor.supervisor import Supervisor
 from services.supervisor.swap import _kept_args, swap_learner
@@ -178,7 +179,7 @@ def test_verbs_that_arrive_during_a_swap_wait_for_it(tmp_path):
     sup = ready_learner(tmp_path, {}, ready_timeout_s=0.5)
     answered = []
     sup.on_control = lambda verb, query, session: answered.append(verb)
-    sup.inbox.put(("control", "dogged/supervisor/policy/ps", None, None))
+    sup.inbox.put(("control", supervisor_key("policy", "ps"), None, None))
     try:
         sup.swapping = True
         sup.turn(lambda: False, 0.3)

@@ -6,10 +6,11 @@ import time
 
 import zenoh
 
+from bus_schema import ROUTER
 from services.bus import DEFAULT_ROUTER, StopFlag, setup_logging, zenoh_config
 
 
-def main(listen: list[str], connect: list[str] | None = None, token: str = "dogged/router") -> int:
+def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTER) -> int:
     log = setup_logging("router", "router")
     stop = StopFlag()
     with zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router")) as session:
@@ -26,7 +27,7 @@ def cli(argv=None) -> int:
     parser.add_argument("--listen", action="append", default=None, help=f"endpoint(s), default {DEFAULT_ROUTER}")
     parser.add_argument("--connect", action="append", default=None,
                         help="another machine's router to link to (kept trying; one deployment over both)")
-    parser.add_argument("--token", default="dogged/router",
+    parser.add_argument("--token", default=ROUTER,
                         help="the liveliness token that says this router is up (its supervisor's)")
     parser.add_argument("--instance", help=argparse.SUPPRESS)
     parser.add_argument("--name", help=argparse.SUPPRESS)

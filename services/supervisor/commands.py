@@ -14,7 +14,7 @@ import numpy as np
 import zenoh
 
 from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError,
-                        TeachSwitch, decode, encode, supervisor_key)
+                        TeachSwitch, decode, encode, supervisor_key, supervisor_token)
 from services.bus import DEFAULT_ROUTER, ask_owner, lossless_publisher, wait_matching, zenoh_config
 from services.supervisor.profile import ProfileError, load_profile
 
@@ -83,7 +83,7 @@ def _profile(session, args) -> str | None:
     if args.profile:
         return args.profile
     names = sorted({str(r.ok.key_expr).split("/")[-1]
-                    for r in session.liveliness().get("dogged/supervisor/*", timeout=2.0) if r.ok is not None})
+                    for r in session.liveliness().get(supervisor_token("*"), timeout=2.0) if r.ok is not None})
     if len(names) == 1:
         return names[0]
     print("no running profile found" if not names else f"several profiles run ({', '.join(names)}): use --profile",
@@ -156,7 +156,7 @@ def down(args) -> int:
             print(f"warning: {problem}", file=sys.stderr)
         end = time.monotonic() + 30
         while time.monotonic() < end:  # the supervisor's token goes when everything has stopped
-            if not any(r.ok is not None for r in session.liveliness().get(f"dogged/supervisor/{profile}", timeout=1)):
+            if not any(r.ok is not None for r in session.liveliness().get(supervisor_token(profile), timeout=1)):
                 print(f"{profile}: stopped")
                 return 0
             time.sleep(0.2)

@@ -6,8 +6,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bus_schema import check_name
+from services.boxes import BOX_ROLES
 
-BOXES = ("platform", "demonstrator", "learner", "arbitrator", "aibo", "perception", "handler", "chain")
+BOXES = tuple(box for box in BOX_ROLES if box != "router")  # the supervisor starts the profile's router itself
 RESTART = ("never", "on-failure", "always")
 SECURE_SCHEMES = ("tls", "quic")  # Zenoh links with mutual TLS: over TCP, and over UDP
 
@@ -63,7 +64,6 @@ class Profile:
 
     def identity(self, spec: ServiceSpec) -> str:
         """The certificate a service of this profile shows: <role>.<service name>."""
-        from services.security import BOX_ROLES
         return f"{BOX_ROLES[spec.box]}.{spec.stands_for or spec.name}"
 
     def identities(self) -> list[str]:

@@ -17,7 +17,8 @@ from dataclasses import replace
 
 import zenoh
 
-from bus_schema import ControlReply, InstanceKeys, Status, check_name, decode, encode, supervisor_key
+from bus_schema import (EVERY_ALIVE, EVERY_STATUS, ControlReply, InstanceKeys, Status, check_name, decode, encode,
+                        router_token, supervisor_key, supervisor_token)
 from services.bus import HOST, Inbox, StopFlag, zenoh_config
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
@@ -31,12 +32,6 @@ MAX_LOG_LINES = 10_000
 REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 MAX_REMOTE = 64  # services not ours kept and listed (the freshest): forged statuses under many names bloat nothing
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
-
-
-def router_token(profile: str) -> str:
-    """The liveliness token a profile's router declares (services/boxes/router.py): one per profile, as
-    linked routers of several machines share one bus."""
-    return f"dogged/router/{profile}"
 
 
 def box_command(box: str, *args: str) -> list[str]:
@@ -300,17 +295,17 @@ class Supervisor:
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
             held = []  # declarations live as long as these references (a dropped token is undeclared)
-            held.append(session.liveliness().declare_subscriber("dl/*/alive/*/*", self.inbox.callback("alive"),
+            held.append(session.liveliness().declare_subscriber(EVERY_ALIVE, self.inbox.callback("alive"),
                                                                 history=True))
             # the router's own token: a restarted router is ready again once it is back
             self.procs["router"].state = "ready"
             self.procs["router"].ready_key = router_token(prof.name)
             held.append(session.liveliness().declare_subscriber(router_token(prof.name), self.inbox.callback("alive"),
                                                                 history=True))
-            held.append(session.declare_subscriber("dl/*/status/*/*", self.inbox.callback("status")))
+            held.append(session.declare_subscriber(EVERY_STATUS, self.inbox.callback("status")))
             held.append(session.declare_queryable(supervisor_key(prof.name, "*"),
                                                   self.inbox.query_callback("control")))
-            held.append(session.liveliness().declare_token(f"dogged/supervisor/{prof.name}"))
+            held.append(session.liveliness().declare_token(supervisor_token(prof.name)))
             self.waiting, self.up_since = list(prof.services), time.monotonic()
             self.pump(session)  # until the profile is stopping
             log.info("stopping %s", prof.name)
