@@ -57,7 +57,7 @@ def run_mirroring(seeds, learner: tuple[str, dict], sizes: dict, out: Path) -> d
         one.append({"seed": seed, "teach_s": result.teach_seconds, "final_err": result.final_error, "curve": result.curve})
         if seed == seeds[0]:
             plots["mirror_one"] = figure5(out, f"mirror_one_seed{seed}", result.trace,
-                                          mirroring.figure5_error(result.trace, spaces),
+                                          mirroring.mirroring_error(result.trace, spaces),
                                           f"Mirroring, one teacher (seed {seed}): head error, rad", 15)
     for seed in tqdm(seeds, desc="mirroring, two teachers", file=sys.stderr):
         row = {"seed": seed}
@@ -68,7 +68,7 @@ def run_mirroring(seeds, learner: tuple[str, dict], sizes: dict, out: Path) -> d
             if seed == seeds[0]:
                 how = "per-output learner" if masked else "whole vector trained (contrast)"
                 plots[f"mirror_two{tag}"] = figure5(out, f"mirror_two{tag}_seed{seed}", result.trace,
-                                                    mirroring.figure5_error(result.trace, spaces),
+                                                    mirroring.mirroring_error(result.trace, spaces),
                                                     f"Mirroring, pan then tilt teacher, {how} (seed {seed})", 15)
         two.append(row)
     return {"one": one, "two": two, "plots": plots}
@@ -97,7 +97,7 @@ def run_ballseeking(seeds, learner: tuple[str, dict], sizes: dict, out: Path, in
             row["teacher_pink_after"] = teacher_success(seed, sizes["pink_after"], inputs=inputs, phase="pink_after")
         rows.append(row)
         if seed == seeds[0]:
-            plots[name] = figure5(out, f"{name}_seed{seed}", r.trace, ballseek.figure5_error(r.trace, r.spaces, r.teacher),
+            plots[name] = figure5(out, f"{name}_seed{seed}", r.trace, ballseek.ballseek_error(r.trace, r.spaces, r.teacher),
                                   f"Ball seeking, {inputs} layout, {correction} correction (seed {seed}): "
                                   "RMS error / half range", 10, r.phases)
     return {"rows": rows, "plots": plots}

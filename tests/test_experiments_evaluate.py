@@ -22,6 +22,15 @@ def test_teacher_outputs_run_on_every_input_with_nan_for_silence():
     assert np.isnan(y[1, 0])
 
 
+def test_the_figure5_measure_runs_the_teacher_on_the_students_inputs_scaled_by_half_the_range():
+    from bus_schema.spaces import Box
+    scale = evaluate.half_range(Box((-1.0,), (3.0,)))
+    teacher_y, error = evaluate.figure5_error(HalfTeacher(), np.array([[2.0], [4.0]]), np.array([[0.0], [3.0]]),
+                                              scale=scale)
+    assert scale.tolist() == [2.0] and teacher_y[:, 0].tolist() == [1.0, 2.0]
+    np.testing.assert_allclose(error, [0.5, 0.5])
+
+
 def test_error_over_time_is_rms_over_chosen_outputs_with_scale():
     teacher = np.array([[1.0, 0.0, 5.0], [0.0, 0.0, 0.0]])
     student = np.array([[0.0, 0.0, 0.0], [0.0, 2.0, 0.0]])

@@ -15,7 +15,7 @@ from services.demo.live import LiveRun
 from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, ball_in_view, ball_spot
 from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE,
                                                    arena_seed, phase_rng)
-from services.experiments.evaluate import asking_rate, error_over_time, plot_error, teacher_outputs
+from services.experiments.evaluate import asking_rate, figure5_error, half_range, plot_error
 from services.experiments.judges import REACH_RADIUS, nose_distance
 from services.experiments.user import ScriptedUser
 from services.experiments.wiring import wired_learner
@@ -93,10 +93,8 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
     x = np.array([inputs[t] for t in ticks])
     box = BlobSlots().box() if layout == "slots" else BlobDetector().box()
     teacher = ball_seek_teacher(Spaces(box, MOVE_BOX))
-    teacher_y = teacher_outputs(teacher, x)
     student_y = np.array([student[t] for t in ticks])
-    scale = (np.array(MOVE_BOX.high) - np.array(MOVE_BOX.low)) / 2
-    error = error_over_time(teacher_y, student_y, scale=scale)
+    teacher_y, error = figure5_error(teacher, x, student_y, scale=half_range(MOVE_BOX))
     mode = np.array([modes[t] for t in ticks])
     teaching = mode == "teacher"
     t = (np.array(ticks, dtype=float) - first_tick) / rate

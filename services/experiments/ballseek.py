@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bus_schema.spaces import Spaces
-from services.experiments.evaluate import error_over_time, teacher_outputs
+from services.experiments.evaluate import figure5_error, half_range
 from services.experiments.judges import REACH_RADIUS, nose_to_ball
 from services.experiments.loop import Trace, tick
 from services.perception.blobs import BlobDetector
@@ -133,10 +133,9 @@ def ball_in_view(xs: np.ndarray, inputs: str, colour: str) -> np.ndarray:
     return np.asarray(xs, dtype=np.float64)[:, column] > 0.5
 
 
-def figure5_error(trace: Trace, spaces: Spaces, teacher=None) -> np.ndarray:
-    """Figure 5 for ball seeking: the teacher on every input the student saw, against the student's
-    prediction; RMS over (forward, turn), each divided by its half-range so both count alike."""
+def ballseek_error(trace: Trace, spaces: Spaces, teacher=None) -> np.ndarray:
+    """Figure 5 for ball seeking: RMS over (forward, turn), each divided by its half-range so both count
+    alike."""
     arrays = trace.arrays()
-    reference = teacher_outputs(teacher or ball_seek_teacher(spaces), arrays["x"])
-    half_range = (np.asarray(spaces.output.high) - np.asarray(spaces.output.low)) / 2
-    return error_over_time(reference, arrays["student"], scale=half_range)
+    return figure5_error(teacher or ball_seek_teacher(spaces), arrays["x"], arrays["student"],
+                         scale=half_range(spaces.output))[1]

@@ -33,6 +33,20 @@ def error_over_time(teacher_y: np.ndarray, student_y: np.ndarray, outputs=None, 
     return np.sqrt(np.mean(diff ** 2, axis=1))
 
 
+def figure5_error(teacher, inputs: np.ndarray, student_y: np.ndarray, outputs=None,
+                  scale=None) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's Figure 5 measure, the one every experiment, the demo and the benchmark use: the
+    teacher program run on every input the student saw, and per tick the RMS over `outputs` of
+    (teacher - student) / scale. Returns (the teacher's outputs, the error per tick)."""
+    teacher_y = teacher_outputs(teacher, inputs)
+    return teacher_y, error_over_time(teacher_y, student_y, outputs=outputs, scale=scale)
+
+
+def half_range(box) -> np.ndarray:
+    """Half of each output's range: the scale that puts outputs of different units on one footing."""
+    return (np.asarray(box.high, dtype=np.float64) - np.asarray(box.low, dtype=np.float64)) / 2
+
+
 def asking_rate(modes, chosen=None) -> float | None:
     """Of the ticks the student drove (those `chosen`, default all), the fraction in which it asked
     for teaching (mode 'unsure', green ears); None if it drove none of them."""

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from services.experiments.evaluate import error_over_time, teacher_outputs
+from services.experiments.evaluate import figure5_error
 from services.experiments.loop import Trace, tick
 from services.experiments.user import ScriptedUser
 from services.learners import DEFAULT_LEARNER, make_learner
@@ -86,19 +86,18 @@ def held_out_error(learner, seed: int, seconds: float = 10.0, platform: AiboPlat
         run = MirrorRun(seed, learner, platform, Handler(seed=seed + HELD_OUT_SEED_OFFSET, distractors=MIRRORING_DISTRACTORS))
         run.run(seconds, teachers={})
         arrays = run.trace.arrays()
-        reference = teacher_outputs(MirrorTeacher(platform.spaces, axes="both"), arrays["x"])
-        errors = reference[:, HEAD_AXES] - arrays["student"][:, HEAD_AXES]
-        return float(np.sqrt(np.mean(errors ** 2)))
+        _, error = figure5_error(MirrorTeacher(platform.spaces, axes="both"), arrays["x"], arrays["student"],
+                                 outputs=HEAD_AXES)
+        return float(np.sqrt(np.mean(error ** 2)))  # the RMS over every tick and head axis
     finally:
         if own:
             platform.close()
 
 
-def figure5_error(trace: Trace, spaces) -> np.ndarray:
+def mirroring_error(trace: Trace, spaces) -> np.ndarray:
     """Figure 5 for mirroring: per tick, RMS over the head axes of (full mirroring teacher - student)."""
     arrays = trace.arrays()
-    reference = teacher_outputs(MirrorTeacher(spaces, axes="both"), arrays["x"])
-    return error_over_time(reference, arrays["student"], outputs=HEAD_AXES)
+    return figure5_error(MirrorTeacher(spaces, axes="both"), arrays["x"], arrays["student"], outputs=HEAD_AXES)[1]
 
 
 @dataclass
