@@ -166,6 +166,13 @@ class Inbox:
         """Hands an item over as a callback would (a test drives a box with no bus this way)."""
         self._queue.put(item)
 
+    def drain(self, timeout: float):
+        """What came in: waits up to `timeout` for a first item, then yields every item already queued."""
+        item = self.get(timeout)
+        while item is not None:
+            yield item
+            item = self.get_nowait()
+
     def get(self, timeout: float):
         try:
             return self._queue.get(timeout=timeout)

@@ -214,9 +214,8 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
                 commanding = session.liveliness().declare_token(keys.commanding(name))
             now = time.monotonic()
             deadline = arb.table.next_deadline()
-            item = inbox.get(0.05 if deadline is None else min(0.05, max(0.0, deadline - now)))
-            while item is not None:
-                tag, key, raw, kind = item
+            wait = 0.05 if deadline is None else min(0.05, max(0.0, deadline - now))
+            for tag, key, raw, kind in inbox.drain(wait):
                 now = time.monotonic()
                 if tag == "alive":
                     arb.on_alive(key, kind)
@@ -225,7 +224,6 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
                 else:
                     handlers[tag](key, raw, now)
                 arb.decide_ready(now)
-                item = inbox.get_nowait()
             arb.decide_ready(time.monotonic())
             if arb.status_due:
                 arb.status_due = False

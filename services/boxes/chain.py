@@ -61,9 +61,7 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
         n_up = upper_spaces.output.dims
         log.info("chaining %s -> %s: %d inputs (%s)", upper, lower, spaces.input.dims, ", ".join(spaces.input.names))
         while not stop:
-            item = inbox.get(0.1)
-            while item is not None:
-                tag, key, raw, _ = item
+            for tag, key, raw, _ in inbox.drain(0.1):
                 if tag == "spaces":
                     raw.reply(down.spaces, payload)
                 elif tag == "extra":
@@ -75,7 +73,6 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                     if msg is not None:
                         pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([msg.y, latest_extra]))))
                         counts["relayed"] += 1
-                item = inbox.get_nowait()
             status.maybe_publish(lambda: (dict(counts, rejected=rejects.total), {"upper": upper, "lower": lower}))
         del held
     return 0

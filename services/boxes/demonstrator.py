@@ -62,9 +62,8 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
         listen(role == "default")
         switch(start_on and role == "teacher")
         while not stop:
-            item, newest = inbox.get(0.1), None
-            while item is not None:
-                tag, key, raw, _ = item
+            newest = None
+            for tag, key, raw, _ in inbox.drain(0.1):
                 if tag == "teach":
                     msg = decode_or_reject(lambda: decode(TeachSwitch, raw, key), rejects, key)
                     if msg is not None and msg.teacher in ("", name) and role == "teacher":
@@ -75,7 +74,6 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
                     if msg is not None:
                         counts["inputs"] += 1
                         newest = msg  # latest-only: a stale input is not worth answering
-                item = inbox.get_nowait()
             if newest is not None and (teaching is not None or role == "default"):
                 y, confidence = plugin(newest.x)
                 mask = getattr(plugin, "mask", None) if y is not None else None

@@ -28,11 +28,9 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, ta
         status = StatusPublisher(session, keys.status("handler", name), "handler", name)
         log.info("handling %s: tail %s, distractors %s (seed %d)", robot, tail, distractors, seed)
         while not stop:
-            item, newest = inbox.get(0.1), None
-            while item is not None:
-                _, key, raw, _ = item
+            newest = None
+            for _, key, raw, _ in inbox.drain(0.1):
                 newest = decode_or_reject(lambda: decode(Clock, raw, key), rejects, key) or newest
-                item = inbox.get_nowait()
             if newest is not None:
                 mask, q = hands.at(newest.sim_time)
                 pub.put(encode(Handle(mask.astype(float), q)))

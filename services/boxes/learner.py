@@ -256,9 +256,8 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
         held.append(session.liveliness().declare_token(keys.alive("learner", name)))
         log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
         while not stop:
-            item, newest, pairs = inbox.get(0.1), None, []
-            while item is not None:
-                tag, key, raw, _ = item
+            newest, pairs = None, []
+            for tag, key, raw, _ in inbox.drain(0.1):
                 if tag == "input":
                     newest = decode_or_reject(lambda: decode(Input, raw, key, {"x": model.n_in}), node.rejects, key) \
                         or newest
@@ -268,7 +267,6 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
                         pairs.append(pair)
                 else:
                     node.on_query(raw)
-                item = inbox.get_nowait()
             if newest is not None:  # answer first: the tick is waiting; learning can follow
                 node.answer(newest)
             for pair in pairs:

@@ -62,9 +62,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
         log.info("blobs for %s -> %d inputs (%s)", ", ".join(detector.colours), spaces.input.dims,
                  ", ".join(spaces.input.names))
         while not stop:
-            item, newest = inbox.get(0.1), None
-            while item is not None:
-                tag, key, raw, _ = item
+            newest = None
+            for tag, key, raw, _ in inbox.drain(0.1):
                 if tag == "spaces":
                     raw.reply(keys.spaces, spaces_payload)
                 else:
@@ -72,7 +71,6 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
                     if frame is not None:
                         counts["skipped"] += newest is not None
                         newest = frame
-                item = inbox.get_nowait()
             if newest is not None:
                 started = time.perf_counter()
                 try:

@@ -170,9 +170,7 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
                 loop.publish_input()
             # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
             next_tick = max(next_tick + period, now) if period else now + watchdog
-        item = inbox.get(max(0.0, next_tick - time.monotonic()))
-        while item is not None:
-            tag, key, raw, kind = item
+        for tag, key, raw, kind in inbox.drain(max(0.0, next_tick - time.monotonic())):
             if tag == "spaces":
                 raw.reply(spaces_key, spaces_payload)
             elif tag == "arbitrator":
@@ -181,7 +179,6 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
                 loop.on_command(key, raw)
             else:
                 handlers[tag](key, raw)
-            item = inbox.get_nowait()
         status.maybe_publish(loop.status)
     return held
 

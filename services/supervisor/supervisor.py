@@ -8,6 +8,7 @@ supervisor is a Zenoh client of its router: readiness is a service's liveliness 
 from __future__ import annotations
 
 import collections
+import itertools
 import logging
 import math
 import os
@@ -269,13 +270,12 @@ class Supervisor:
 
     def handle_events(self, session) -> None:
         """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order)."""
-        item = self.deferred.pop(0) if self.deferred and not self.swapping else self.inbox.get(0.05)
-        while item is not None:
+        first = [self.deferred.pop(0)] if self.deferred and not self.swapping else []
+        for item in itertools.chain(first, self.inbox.drain(0.0 if first else 0.05)):
             if item[0] == "control" and self.swapping:
                 self.deferred.append(item)
             else:
                 self.on_event(item, session)
-            item = self.inbox.get_nowait()
 
     # --- the run ----------------------------------------------------------------------------
     def run(self) -> int:
