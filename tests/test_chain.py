@@ -1,7 +1,8 @@
 """Two DL instances chained: the upper one's commands are the lower one's inputs; the robot obeys the lower."""
 import numpy as np
 
-from bus_schema import Command, Input, decode
+from bus_schema import Command, Input, SpacesMessage, decode
+from services.bus import ask_owner
 from tests.harness import Probe, dogged, dogged_ok, stop
 
 
@@ -42,6 +43,37 @@ def test_two_chained_instances_learn_and_drive_the_robot(router, tmp_path):
         rms = float(np.sqrt(np.mean(error ** 2)))
         print(f"two chained students drive the robot: RMS {rms:.4f} over {len(judged)} ticks")
         assert rms < 0.12
+    finally:
+        probe.close()
+        assert stop(*procs) == [0] * len(procs)
+
+
+def test_chain_extra_appends_the_latest_sample_of_another_stream(router, tmp_path):
+    """`chain --extra up`: the lower input of tick k is the upper command of tick k followed by the
+    latest input of instance `up` (here the platform's own position), and the lower spaces say so."""
+    c = ["--connect", router]
+
+    def box(name, *args):
+        return dogged("run", *args, *c, log=tmp_path / f"{name}.log")
+
+    procs = [box("platform", "platform", "--instance", "up", "--param", "dims=2", "--rate", "50"),
+             box("up-teacher", "demonstrator", "--instance", "up", "--teacher", "sine", "--on"),
+             box("up-arbitrator", "arbitrator", "--instance", "up"),
+             box("chain", "chain", "--upper", "up", "--lower", "low", "--consumer-spaces", "dl/up/spaces",
+                 "--extra", "up")]
+    probe = Probe(router)
+    try:
+        upper, lower, inputs = probe.record("dl/up/command"), probe.record("dl/low/input"), probe.record("dl/up/input")
+        probe.wait_for(lambda: len(lower) >= 100, 60, "100 chained inputs")
+        commands = {m.tick: m.y for m in (decode(Command, raw, k, {"y": 2}) for k, raw, _ in upper)}
+        seen = [tuple(m.x) for m in (decode(Input, raw, k, {"x": 4}) for k, raw, _ in inputs)]
+        chained = [decode(Input, raw, k, {"x": 6}) for k, raw, _ in lower]  # 2 commanded + 4 of the input
+        assert all(np.array_equal(m.x[:2], commands[m.tick]) for m in chained if m.tick in commands)
+        assert sum(m.tick in commands for m in chained) >= 90
+        assert all(tuple(m.x[2:]) in seen for m in chained), "the extra is a sample the upper instance saw"
+        payload, problem = ask_owner(probe.session, "dl/low/spaces", 5.0)
+        assert payload is not None, problem
+        assert len(decode(SpacesMessage, payload, "dl/low/spaces").spaces["input"]["names"]) == 6
     finally:
         probe.close()
         assert stop(*procs) == [0] * len(procs)
