@@ -8,6 +8,7 @@ from .messages import (MODES, Applied, ArenaReset, Clock, Command, ControlReply,
 from .spaces import Box, Spaces
 
 __all__ = ["VERSION", "decode", "encode", "pack_vector", "unpack_vector", "SchemaError", "InstanceKeys",
-           "check_name", "supervisor_key", "supervisor_token", "router_token", "ROUTER", "EVERY_ALIVE", "EVERY_STATUS", "MODES", "Applied", "Command", "ControlReply", "RobotKeys", "ArenaReset",
+           "check_name", "supervisor_key", "supervisor_token", "router_token", "ROUTER", "EVERY_ALIVE", "EVERY_STATUS",
+           "MODES", "Applied", "Command", "ControlReply", "RobotKeys", "ArenaReset",
            "Clock", "Frame", "Handle", "RobotState", "Input", "PairBatch", "Proposal",
            "SelectLearner", "Snapshot", "SpacesMessage", "Status", "TeachSwitch", "TrainingPair", "Box", "Spaces"]

@@ -28,9 +28,13 @@ class PairLog:
         self.n_in, self.n_out = n_in, n_out
         self._scratch = None if path else tempfile.TemporaryDirectory(prefix="dogged-pairs-")
         self.path = Path(path) if path else Path(self._scratch.name) / "pairs"
-        self.durable = path is not None  # flushed after every pair: a crash loses at most a torn record
         self._n = 0
         self._file = None if path else open(self.path, "ab")
+
+    @property
+    def durable(self) -> bool:
+        """A file of the learner's state dir, flushed after every pair: a crash loses at most a torn record."""
+        return self._scratch is None
 
     def __len__(self) -> int:
         return self._n

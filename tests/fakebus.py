@@ -24,19 +24,18 @@ class FakeReply:
 class FakeSession:
     def __init__(self):
         self.published: list[tuple[str, bytes]] = []
-        self.answerers: dict[str, object] = {}  # key -> answer(parameters: dict) -> payload or None
+        self.answerers: dict[str, object] = {}  # key -> answer(parameters) -> payload or None
         self.asked: list[str] = []
 
     def answer(self, key: str, answerer) -> None:
-        """Someone answers queries on `key`: answerer(parameters) -> payload bytes, or None (no reply)."""
+        """Someone answers queries on `key`: answerer(zenoh.Parameters) -> payload bytes, or None (no reply)."""
         self.answerers[key] = answerer
 
     def get(self, selector: str, **_options):
         self.asked.append(selector)
         key, _, query = selector.partition("?")
-        parameters = dict(item.split("=", 1) for item in query.split(";") if item)
         answerer = self.answerers.get(key)
-        payload = answerer(parameters) if answerer else None
+        payload = answerer(zenoh.Parameters(query)) if answerer else None
         return [] if payload is None else [FakeReply(payload)]
 
     def declare_publisher(self, key: str, **_qos) -> FakePublisher:
@@ -45,8 +44,3 @@ class FakeSession:
     def on(self, key: str) -> list[bytes]:
         """The payloads published on `key`, in order."""
         return [payload for k, payload in self.published if k == key]
-
-
-def sample(tag: str, key: str, payload: bytes) -> tuple:
-    """An Inbox item as services.bus.Inbox.callback(tag) makes it from a sample put on `key`."""
-    return tag, key, payload, zenoh.SampleKind.PUT

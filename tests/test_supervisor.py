@@ -112,19 +112,7 @@ def test_a_service_that_will_not_stop_says_where_it_is_stuck_before_it_is_killed
     assert f'File "{stuck}", line 7' in proc.stdout.read()
 
 
-SMALL = """
-[profile]
-name = "orphans"
-log_dir = "{logs}"
-
-[services.platform]
-box = "platform"
-args = ["--platform", "point", "--param", "dims=2", "--rate", "50"]
-
-[services.teacher]
-box = "demonstrator"
-args = ["--teacher", "sine", "--on"]
-"""
+SMALL = PROFILE.split("\n[services.learner]")[0]  # its platform and teacher only
 
 
 def test_services_stop_when_the_supervisor_is_killed(tmp_path):

@@ -120,14 +120,10 @@ class LearnerNode:
         """Take over from learner `old`: its snapshot if the class matches, else learn its history."""
         snap = self.query(self.keys.snapshot(old), Snapshot, timeout=10.0)
         if snap is None:
-            self.log.error("learner %s did not answer with a snapshot; starting cold", old)
-            self.counts.update(warmed=0, warm_failed=1)
-            return False
+            return self.start_cold(f"learner {old} did not answer with a snapshot")
         history = self.query(self.keys.history(old), PairBatch, f"epoch={snap.epoch};upto={snap.seq}", timeout=30.0)
         if history is None or len(history.x) != snap.n_learned:
-            self.log.error("learner %s's history is incomplete; starting cold", old)
-            self.counts.update(warmed=0, warm_failed=1)
-            return False
+            return self.start_cold(f"learner {old}'s history is incomplete")
         restored = None
         if snap.learner_class == type(self.model).__name__:
             try:
@@ -159,6 +155,11 @@ class LearnerNode:
         self.counts["warmed"] = len(history.x)
         self.log.info("warmed from %s by %s (up to seq %d of epoch %s)", old, how, snap.seq, snap.epoch)
         return True
+
+    def start_cold(self, why: str) -> bool:
+        self.log.error("%s; starting cold", why)
+        self.counts.update(warmed=0, warm_failed=1)  # the swap's answer says so
+        return False
 
     # --- serving ----------------------------------------------------------------------------
     def answer(self, msg: Input):

@@ -107,6 +107,7 @@ class BusRecorder:
         """The recorded payloads on `key`, from index `since`, that decode as `cls`."""
         return [m for m in (decoded(cls, k, raw) for k, raw, _ in self.recorded[key][since:]) if m is not None]
 
+
 class LiveRun(BusRecorder):
     """A profile brought up by the supervisor (in a child process), recorded and steered."""
 

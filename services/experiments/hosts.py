@@ -26,6 +26,7 @@ import numpy as np
 
 from bus_schema import Command, Input, Status
 from services.demo.live import REPO, BusRecorder, decoded
+from services.demo.mirroring import param_args
 from services.experiments.wiring import wired_learner
 from services.netlab.lab import Lab
 
@@ -71,7 +72,6 @@ args = ["--distractors", "mirroring"]
 
 def brain_profile(run_dir: Path, certs: Path, deadline_ms: float) -> str:
     learner, params = wired_learner("mirroring")
-    learner_args = ["--learner", learner] + [a for k, v in params.items() for a in ("--param", f"{k}={v}")]
     return f"""[profile]
 name = "brain"
 log_dir = "{run_dir}/brain/logs"
@@ -83,7 +83,7 @@ security = "{certs}"
 
 [services.learner]
 box = "learner"
-args = {json.dumps(learner_args)}
+args = ["--learner", "{learner}"{param_args(params)}]
 
 [services.arbitrator]
 box = "arbitrator"

@@ -85,9 +85,7 @@ def held_out_error(learner, seed: int, seconds: float = 10.0, platform: AiboPlat
         platform.reset(seed + HELD_OUT_SEED_OFFSET)
         run = MirrorRun(seed, learner, platform, Handler(seed=seed + HELD_OUT_SEED_OFFSET, distractors=MIRRORING_DISTRACTORS))
         run.run(seconds, teachers={})
-        arrays = run.trace.arrays()
-        _, error = figure5_error(MirrorTeacher(platform.spaces, axes="both"), arrays["x"], arrays["student"],
-                                 outputs=HEAD_AXES)
+        error = mirroring_error(run.trace, platform.spaces)
         return float(np.sqrt(np.mean(error ** 2)))  # the RMS over every tick and head axis
     finally:
         if own:

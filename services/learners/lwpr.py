@@ -149,9 +149,10 @@ class LWPR(Learner):
         if self._input_scale is not None:
             with np.errstate(over="ignore"):
                 xs = xs * self._input_scale
-            if not np.isfinite(xs).all():  # every row checked before any is learned
-                row = int(np.argmin(np.isfinite(xs).all(axis=1)))
-                self._reject(-1 - int(np.argmin(np.isfinite(xs[row]))), xs[row], ys[row])
+            overflowed = np.argwhere(~np.isfinite(xs))  # every row checked before any is learned
+            if len(overflowed):
+                row, column = overflowed[0]
+                self._reject(-1 - int(column), xs[row], ys[row])
         kernels = _kernels()
         row = 0
         while row < xs.shape[0]:

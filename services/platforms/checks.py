@@ -18,6 +18,8 @@ DT = 0.05  # seconds per step: a 20 Hz control loop is slow enough for any platf
 STEPS = 20
 HOLD_TOLERANCE = 0.02  # of each input's range: how far a held input may wander
 MAX_HOLD_SETTLE_SECONDS = 0.5  # the longest a platform may declare for hold() to bring it to rest
+# what a platform must have: the Platform protocol's attributes and methods
+CONTRACT = (*Platform.__annotations__, *(n for n, v in vars(Platform).items() if callable(v) and not n.startswith("_")))
 
 
 def _random_commands(box: Box, count: int, rng: np.random.Generator, spread: float) -> np.ndarray:
@@ -38,9 +40,9 @@ def _assert_input(platform, x, what: str) -> None:
 
 def check_spaces_declared_as_data(platform_factory: Callable) -> None:
     with closing(platform_factory(seed=0)) as platform:
-        missing = [m for m in ("spaces", "reset", "observe", "step", "hold", "close") if not hasattr(platform, m)]
-        assert isinstance(platform, Platform), f"{type(platform).__name__} lacks {', '.join(missing) or 'part'} of " \
-                                               "the Platform contract (services/platforms/base.py)"
+        missing = [m for m in CONTRACT if not hasattr(platform, m)]
+        assert not missing, f"{type(platform).__name__} lacks {', '.join(missing)} of the Platform contract " \
+                            "(services/platforms/base.py)"
         spaces = platform.spaces
         assert isinstance(spaces, Spaces), f"platform.spaces is {type(spaces).__name__}; declare a bus_schema.spaces.Spaces"
         for side in ("input", "output"):

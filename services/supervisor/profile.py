@@ -169,15 +169,12 @@ def _check_security(profile: Profile) -> None:
         if scheme in SECURE_SCHEMES:
             raise ProfileError(f"zenoh.router: a {scheme}/ endpoint needs zenoh.security (a `dogged certs` directory)")
         return
-    if scheme not in SECURE_SCHEMES:
-        raise ProfileError(f"zenoh.router: with zenoh.security the router listens on tls/... (or quic/...), got "
-                           f"{profile.router!r}")
-    if profile.upstream is not None and profile.upstream.split("/", 1)[0] not in SECURE_SCHEMES:
-        raise ProfileError(f"--join: with zenoh.security the other machine's router is reached on tls/... (or "
-                           f"quic/...), got {profile.upstream!r}")
-    for endpoint in profile.also_listen:
-        if endpoint.split("/", 1)[0] not in SECURE_SCHEMES:
-            raise ProfileError(f"zenoh.also_listen: with zenoh.security every endpoint is tls/ or quic/, got {endpoint!r}")
+    endpoints = [("zenoh.router", "the router listens on", profile.router),
+                 ("--join", "the other machine's router is reached on", profile.upstream),
+                 *(("zenoh.also_listen", "every endpoint is", e) for e in profile.also_listen)]
+    for where, must, endpoint in endpoints:
+        if endpoint is not None and endpoint.split("/", 1)[0] not in SECURE_SCHEMES:
+            raise ProfileError(f"{where}: with zenoh.security {must} tls/... (or quic/...), got {endpoint!r}")
     missing = [cn for cn in profile.identities() if not (profile.security / f"{cn}.pem").is_file()]
     if not (profile.security / "ca.pem").is_file() or missing:
         raise ProfileError(f"zenoh.security: {profile.security} lacks {', '.join(missing) or 'ca.pem'}; make them "

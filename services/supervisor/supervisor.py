@@ -154,7 +154,8 @@ class Supervisor:
         """A service's status, kept for `ps`: only one that says who it is where that service speaks."""
         try:
             msg = decode(Status, raw, key)
-            check_name("status role", msg.role), check_name("status service", msg.name)
+            check_name("status role", msg.role)
+            check_name("status service", msg.name)
             if not key.endswith(f"/status/{msg.role}/{msg.name}"):
                 raise ValueError(f"the status of {msg.role}/{msg.name} came on {key}")
         except ValueError as err:
@@ -206,20 +207,18 @@ class Supervisor:
         rows = []
         for proc in self.procs.values():
             row = proc.describe()
-            status = self.status.get(f"{proc.spec.role}/{proc.spec.name}", {})
+            status = self.status_of(proc.spec)
             row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status))
             rows.append(row)
         for spec in self.waiting:
             why = "after " + ", ".join(f"{a} ({self.procs[a].state})" if a in self.procs else a for a in spec.after)
-            rows.append({"name": spec.name, "box": spec.box, "pid": 0, "state": "waiting", "restarts": 0,
-                         "uptime_s": 0.0, "exit": "", "rates": {}, "host": HOST, "why": why})
+            rows.append(not_running_row(spec.name, spec.box, "waiting", why=why))
         now = time.monotonic()
         for key, status in sorted(self.status.items()):
             if key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
                 role, name = key.split("/", 1)
-                rows.append({"name": name, "box": role, "pid": status["pid"], "state": "remote", "restarts": 0,
-                             "uptime_s": 0.0, "exit": "", "rates": status["rates"], "host": status["host"],
-                             "ticks": tick_counters(status)})
+                rows.append(not_running_row(name, role, "remote", pid=status["pid"], rates=status["rates"],
+                                            host=status["host"], ticks=tick_counters(status)))
         return rows
 
     def logs(self, service: str, lines: int) -> ControlReply:
@@ -314,6 +313,12 @@ class Supervisor:
         self.procs["router"].stop()
         log.info("stopped; no process left")
         return 0
+
+
+def not_running_row(name: str, box: str, state: str, **fields) -> dict:
+    """A `ps` row for a service this supervisor does not run: one still waiting, or another machine's."""
+    return {"name": name, "box": box, "pid": 0, "state": state, "restarts": 0, "uptime_s": 0.0, "exit": "",
+            "rates": {}, "host": HOST, **fields}
 
 
 def tick_counters(status: dict) -> dict:
