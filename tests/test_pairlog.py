@@ -17,6 +17,7 @@ def test_pairs_survive_a_restart_and_a_torn_tail(tmp_path):
     again = PairLog(2, 1, path)
     pairs = again.replay_file()
     assert [p.seq for p in pairs] == [1, 2, 3, 4, 5]
+    assert again.history()[0][:, 0].tolist() == [0, 1, 2, 3, 4], "replayed pairs are history too"
     assert path.stat().st_size == sum(len(__import__("bus_schema").encode(p)) for p in pairs)
 
 
@@ -32,6 +33,6 @@ def test_history_reads_back_from_the_file_and_memory_holds_no_pairs():
     assert mask[7].tolist() == [1.0, 0.0] and mask[8].tolist() == [1.0, 1.0]
     assert log.history(5)[0][:, 0].tolist() == [0, 1, 2, 3, 4]
     assert all(not isinstance(v, np.ndarray) or v.size < 100 for v in vars(log).values())
-    scratch = log.path
+    scratch = log.rows_path
     log.close()
     assert not scratch.exists(), "the temporary pair file goes with the learner"
