@@ -6,9 +6,11 @@ import logging
 import sys
 import time
 
-from bus_schema import supervisor_key
+import zenoh
+
+from bus_schema import ControlReply, decode, supervisor_key
 from services.supervisor.profile import Profile, ServiceSpec
-from services.supervisor.supervisor import Supervisor
+from services.supervisor.supervisor import MAX_DEFERRED, Supervisor
 from services.supervisor.swap import _kept_args, swap_learner
 
 SLEEPS = [sys.executable, "-c", "import time; time.sleep(60)"]
@@ -187,6 +189,34 @@ def test_verbs_that_arrive_during_a_swap_wait_for_it(tmp_path):
         sup.swapping = False
         sup.turn(lambda: bool(answered), 2.0)
         assert answered == ["ps"]
+    finally:
+        sup.stop_all()
+
+
+class FakeQuery:
+    def __init__(self, verb: str):
+        self.key_expr, self.parameters, self.replies = supervisor_key("policy", verb), zenoh.Parameters(""), []
+
+    def reply(self, key, payload):
+        self.replies.append(decode(ControlReply, payload, key))
+
+
+def test_a_flood_of_verbs_during_a_swap_is_held_up_to_a_bound_and_the_rest_answered_busy(tmp_path):
+    """Verbs held during a swap were unbounded: a stranger's flood of well-formed queries (any local
+    process may ask on an unsecured profile) grew the list for as long as the swap ran."""
+    sup = ready_learner(tmp_path, {})
+    flood = [FakeQuery("ps") for _ in range(MAX_DEFERRED + 36)]
+    for query in flood:
+        sup.inbox.put(("control", str(query.key_expr), query, None))
+    try:
+        sup.swapping = True
+        sup.turn(lambda: False, 0.3)
+        busy = [q.replies[0] for q in flood if q.replies]
+        assert len(sup.deferred) == MAX_DEFERRED and len(busy) == 36 and sup.refused["ps"] == 36
+        assert all(not r.ok and "a hot-swap is under way" in r.text for r in busy)
+        sup.swapping = False
+        sup.turn(lambda: not sup.deferred, 5.0)
+        assert all(q.replies and q.replies[-1].ok for q in flood[:MAX_DEFERRED]), "the held ones answered after it"
     finally:
         sup.stop_all()
 

@@ -32,6 +32,7 @@ VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"},
 MAX_LOG_LINES = 10_000
 REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 MAX_REMOTE = 64  # services not ours kept and listed (the freshest): forged statuses under many names bloat nothing
+MAX_DEFERRED = 64  # verbs held while a swap runs; beyond, each is answered at once that a swap is under way
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
@@ -188,6 +189,9 @@ class Supervisor:
             return ControlReply(False, f"no verb {verb[:64]!r}; verbs: {', '.join(VERBS)}", {})
         if unknown:
             return ControlReply(False, f"{verb}: unknown parameter(s) {', '.join(unknown)[:200]}", {})
+        if self.swapping:
+            return ControlReply(False, f"{verb}: a hot-swap is under way and {MAX_DEFERRED} verbs wait for it; "
+                                       "ask again after it", {})
         if verb == "ps":
             return ControlReply(True, "", {"profile": self.profile.name, "services": self.ps(),
                                            "refused": dict(self.refused)})
@@ -271,9 +275,9 @@ class Supervisor:
         """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order)."""
         first = [self.deferred.pop(0)] if self.deferred and not self.swapping else []
         for item in itertools.chain(first, self.inbox.drain(0.0 if first else 0.05)):
-            if item[0] == "control" and self.swapping:
+            if item[0] == "control" and self.swapping and len(self.deferred) < MAX_DEFERRED:
                 self.deferred.append(item)
-            else:
+            else:  # (a verb past MAX_DEFERRED during a swap is answered: busy)
                 self.on_event(item, session)
 
     # --- the run ----------------------------------------------------------------------------
