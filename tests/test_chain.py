@@ -66,11 +66,15 @@ def test_chain_extra_appends_the_latest_sample_of_another_stream(router, tmp_pat
         upper, lower, inputs = probe.record("dl/up/command"), probe.record("dl/low/input"), probe.record("dl/up/input")
         probe.wait_for(lambda: len(lower) >= 100, 60, "100 chained inputs")
         commands = {m.tick: m.y for m in (decode(Command, raw, k, {"y": 2}) for k, raw, _ in upper)}
-        seen = [tuple(m.x) for m in (decode(Input, raw, k, {"x": 4}) for k, raw, _ in inputs)]
+        seen = {tuple(m.x): m.tick for m in (decode(Input, raw, k, {"x": 4}) for k, raw, _ in inputs)}
         chained = [decode(Input, raw, k, {"x": 6}) for k, raw, _ in lower]  # 2 commanded + 4 of the input
         assert all(np.array_equal(m.x[:2], commands[m.tick]) for m in chained if m.tick in commands)
         assert sum(m.tick in commands for m in chained) >= 90
-        assert all(tuple(m.x[2:]) in seen for m in chained), "the extra is a sample the upper instance saw"
+        # the probe's subscriptions start a few ticks apart; judge the ticks it saw the inputs before
+        judged = [m for m in chained if m.tick >= min(seen.values()) + 5]
+        assert len(judged) >= 80
+        lags = [m.tick - seen.get(tuple(m.x[2:]), -10 ** 9) for m in judged]
+        assert all(0 <= lag <= 5 for lag in lags), f"the extra is a recent sample of `up`: lags {sorted(set(lags))}"
         payload, problem = ask_owner(probe.session, "dl/low/spaces", 5.0)
         assert payload is not None, problem
         assert len(decode(SpacesMessage, payload, "dl/low/spaces").spaces["input"]["names"]) == 6
