@@ -87,32 +87,42 @@ def main(quick: bool) -> dict:
             for scheme in runs:
                 log(f"lossy radio, brain over {scheme}, round {k + 1}")
                 runs[scheme].append(lossy(work / f"{scheme}{k}", scheme, spans))
+    teacher_cuts = {k: v for k, v in cuts.items() if k.startswith("teacher")}
+    print_latency(one_host, wired, runs)
+    print_partitions(teacher_cuts, cuts["brain cut 3 s"])
+    print_lessons(runs)
+    return {**figures(one_host, wired, teacher_cuts, cuts["brain cut 3 s"], runs),
+            "wall_s": round(time.monotonic() - began, 1)}
 
+
+def print_latency(one_host, wired, runs: dict) -> None:
     print(f"{'deployment':<34} {'ticks':>6} {'lost':>7} {'stale':>7} {'p50 ms':>8} {'p99 ms':>8}")
     print("-" * 74)
-    for name, w in (("one host (no network)", one_host), ("four hosts, veth, no loss", wired)):
+    rows = [("one host (no network)", one_host), ("four hosts, veth, no loss", wired)]
+    rows += [(f"radio 5%/20ms, brain {scheme} #{k + 1}", w) for scheme, results in runs.items()
+             for k, (w, _) in enumerate(results)]
+    for name, w in rows:
         print(f"{name:<34} {w.ticks:>6} {w.lost_share:>7.1%} {w.stale_share:>7.1%} {w.latency_p50_ms:>8.2f} "
               f"{w.latency_p99_ms:>8.2f}")
-    for scheme, results in runs.items():
-        for k, (w, _) in enumerate(results):
-            name = f"radio 5%/20ms, brain {scheme} #{k + 1}"
-            print(f"{name:<34} {w.ticks:>6} {w.lost_share:>7.1%} {w.stale_share:>7.1%} {w.latency_p50_ms:>8.2f} "
-                  f"{w.latency_p99_ms:>8.2f}")
     print(f"cross-host tick p50 {wired.latency_p50_ms:.2f} ms vs one host {one_host.latency_p50_ms:.2f} ms "
           f"(x{wired.latency_p50_ms / one_host.latency_p50_ms:.2f})")
     print()
+
+
+def print_partitions(teacher_cuts: dict, brain) -> None:
     print(f"{'partition':<18} {'noticed (s)':>12} {'healed (s)':>11} {'commands while cut':>19} {'modes':>16} "
           f"{'restarted':>10}")
     print("-" * 92)
-    teacher_cuts = {k: v for k, v in cuts.items() if k.startswith("teacher")}
     for name, p in teacher_cuts.items():
         print(f"{name:<18} {_s(p.detect_s):>12} {_s(p.heal_s):>11} {p.commands_while_cut:>19} "
               f"{','.join(sorted(p.modes_while_cut)):>16} {str(p.restarted):>10}")
-    brain = cuts["brain cut 3 s"]
     print(f"brain cut 3 s: robot held still {brain.held_after - brain.held_before} ticks, head moved "
           f"{brain.head_motion_rad:.5f} rad, {brain.commands_while_cut} commands while cut, loop back "
           f"{_s(brain.resume_s)} s after the heal")
     print()
+
+
+def print_lessons(runs: dict) -> None:
     print(f"{'lossy radio, brain over':<24} {'taught (s) per run':>20} {'RMS after (rad)':>16} {'rounds':>40}")
     print("-" * 104)
     for scheme, results in runs.items():
@@ -122,6 +132,8 @@ def main(quick: bool) -> dict:
     print(f"targets: noticed under 1 s, healed under 2 s, mirroring under 5 s of teaching over the lossy link "
           f"(the brain joins over {BRAIN_LINK})")
 
+
+def figures(one_host, wired, teacher_cuts: dict, brain, runs: dict) -> dict:
     chosen = runs[BRAIN_LINK]
     taught = [l.taught_s if l.learned else float("inf") for _, l in chosen]
     return {"partition_detect_s": _worst(p.detect_s for p in teacher_cuts.values()),
@@ -141,8 +153,7 @@ def main(quick: bool) -> dict:
                                        "tick_p50_ms": [w.latency_p50_ms for w, _ in results],
                                        "tick_p99_ms": [w.latency_p99_ms for w, _ in results],
                                        "teach_s": [round(l.taught_s, 2) if l.learned else None for _, l in results]}
-                              for scheme, results in runs.items()},
-            "wall_s": round(time.monotonic() - began, 1)}
+                              for scheme, results in runs.items()}}
 
 
 def _s(value) -> str:

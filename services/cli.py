@@ -19,13 +19,28 @@ def run_box(argv: list[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from services.bus import add_certificate_args, use_certificate
+    from services.bus import use_certificate
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["run"]:
         return run_box(argv[1:])
     if argv[:1] == ["demo"]:
         from services.demo import cli as demo
         return demo(argv[1:])
+    args = verbs_parser().parse_args(argv)
+    use_certificate(args)
+    if args.verb == "up":
+        from services.supervisor.commands import up
+        return up(args.profile_file, args.router, not args.quiet, args.insecure, args.join)
+    if args.verb == "certs":
+        from services.supervisor.commands import certs
+        return certs(args.directory, args.profile_file, args.identity)
+    from services.supervisor import commands
+    return getattr(commands, args.verb)(args)
+
+
+def verbs_parser() -> argparse.ArgumentParser:
+    """`dogged <verb>`: the supervisor's verbs (`run` and `demo` parse their own arguments)."""
+    from services.bus import add_certificate_args
     parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
     parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
     parser.add_argument("--profile", default=None, help="which running profile (default: the only one)")
@@ -70,17 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     arena.add_argument("--ball", action="append", metavar="NAME=X,Y|NAME=off",
                        help="put a ball at X,Y metres (the robot starts at 0,0 facing +x), or take it away (repeatable)")
     arena.add_argument("--robot", default="aibo")
-    args = parser.parse_args(argv)
-    use_certificate(args)
-    if args.verb == "up":
-        from services.supervisor.commands import up
-        return up(args.profile_file, args.router, not args.quiet, args.insecure, args.join)
-    if args.verb == "certs":
-        from services.supervisor.commands import certs
-        return certs(args.directory, args.profile_file, args.identity)
-    from services.supervisor import commands
-    return getattr(commands, args.verb)(args)
-
+    return parser
 
 if __name__ == "__main__":
     sys.exit(main())

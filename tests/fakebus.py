@@ -16,6 +16,17 @@ class FakePublisher:
         self.bus.published.append((self.key, bytes(payload)))
 
 
+class FakeDeclaration:
+    """A subscriber or a liveliness token: listed on the bus until undeclared."""
+
+    def __init__(self, listing: list, key: str, callback=None):
+        self.listing, self.key, self.callback = listing, key, callback
+        listing.append(self)
+
+    def undeclare(self) -> None:
+        self.listing.remove(self)
+
+
 class FakeReply:
     def __init__(self, payload: bytes):
         self.ok, self.err = types.SimpleNamespace(payload=types.SimpleNamespace(to_bytes=lambda: payload)), None
@@ -26,6 +37,8 @@ class FakeSession:
         self.published: list[tuple[str, bytes]] = []
         self.answerers: dict[str, object] = {}  # key -> answer(parameters) -> payload or None
         self.asked: list[str] = []
+        self.subscribers: list[FakeDeclaration] = []
+        self.tokens: list[FakeDeclaration] = []
 
     def answer(self, key: str, answerer) -> None:
         """Someone answers queries on `key`: answerer(zenoh.Parameters) -> payload bytes, or None (no reply)."""
@@ -40,6 +53,21 @@ class FakeSession:
 
     def declare_publisher(self, key: str, **_qos) -> FakePublisher:
         return FakePublisher(self, str(key))
+
+    def declare_subscriber(self, key: str, callback) -> FakeDeclaration:
+        return FakeDeclaration(self.subscribers, str(key), callback)
+
+    def liveliness(self):
+        return types.SimpleNamespace(declare_token=lambda key: FakeDeclaration(self.tokens, str(key)))
+
+    def deliver(self, key: str, payload: bytes) -> int:
+        """`payload` put on `key`: handed to every subscriber of exactly that key; returns how many."""
+        sample = types.SimpleNamespace(key_expr=key, payload=types.SimpleNamespace(to_bytes=lambda: payload),
+                                       kind=zenoh.SampleKind.PUT)
+        matched = [s for s in self.subscribers if s.key == key]
+        for subscriber in matched:
+            subscriber.callback(sample)
+        return len(matched)
 
     def on(self, key: str) -> list[bytes]:
         """The payloads published on `key`, in order."""

@@ -12,7 +12,7 @@ from pathlib import Path
 import zenoh
 
 from bus_schema import EVERY_STATUS, Status, decode
-from services.bus import zenoh_config
+from services.bus import wait_matching, zenoh_config
 from services.supervisor.process import dump_stacks_then_kill
 
 REPO = Path(__file__).resolve().parents[1]
@@ -101,9 +101,7 @@ class Probe:
         # lossless on purpose: a test counts what arrives, so the sender must not drop under congestion
         pub = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK,
                                              reliability=zenoh.Reliability.RELIABLE)
-        end = time.monotonic() + 3
-        while not pub.matching_status.matching and time.monotonic() < end:
-            time.sleep(0.01)
+        wait_matching(pub, 3.0)
         pub.put(payload)
         pub.undeclare()
 

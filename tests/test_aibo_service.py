@@ -30,14 +30,7 @@ def test_aibo_service_on_the_bus(router, tmp_path):
         assert decode_rgb(frame.jpeg).shape == (160, 208, 3) and frame.sim_time > 0
 
         pub = probe.session.declare_publisher("dl/main/command")
-        for mode in ("teacher", "student", "unsure"):
-            tick = probe.counter("aibo/aibo", "tick")  # one it has published (a later one is refused)
-            for _ in range(10):
-                pub.put(encode(Command(tick, time.time(), np.zeros(18), mode, "test/x", 1.0)))
-                time.sleep(0.02)
-            probe.wait_for(lambda: states and latest(states, RobotState, {}).ear_mode == mode, 10, f"ears {mode}")
-            rgba = latest(states, RobotState).ear_rgba
-            assert np.allclose(rgba, EAR_COLOURS[mode], atol=1e-3), (mode, rgba)
+        tick = ears_show_each_mode(probe, pub, states)
 
         # the handler's joints win over the arbitrator's: the applied command shows the handled value
         handle = probe.session.declare_publisher("robot/aibo/handle")
@@ -55,23 +48,8 @@ def test_aibo_service_on_the_bus(router, tmp_path):
         last = latest(applied, Applied, {"y": 18})
         assert last.y[16] == 0.5 and last.y[17] == 0.0, last.y
 
-        # the arena on request: hide orange, pink at a known spot
-        probe.put("robot/aibo/arena", encode(ArenaReset(3, {"pink": [0.6, 0.0], "orange": None})))
-        probe.wait_for(lambda: probe.counter("aibo/aibo", "resets") == 1, 10, "the reset")
-        probe.wait_for(lambda: abs(latest(states, RobotState).balls["pink"][0] - 0.6) < 0.05, 10, "pink placed")
-        # the same from the command line, confirmed from the robot's state; a bad ball is refused by name
-        done = dogged_ok("arena", "--seed", "4", "--ball", "pink=0.7,0.2", "--ball", "orange=off", endpoint=router)
-        assert done.returncode == 0 and "pink [0.7, 0.2], orange off" in done.stdout, done.stderr
-        assert np.allclose(latest(states, RobotState).balls["pink"][:2], [0.7, 0.2], atol=0.05)
-        refused = dogged_ok("arena", "--ball", "blue=0.5,0", endpoint=router, timeout=30)
-        assert refused.returncode == 1 and "did not confirm the arena reset" in refused.stderr
-        # hostile but well-formed resets are refused before anything is reset (seed -1 crashed the Aibo
-        # after it had rebuilt the world: issue 12)
-        resets = probe.counter("aibo/aibo", "resets")
-        for hostile in (ArenaReset(-1, {}), ArenaReset(2 ** 40, {}), ArenaReset(1, {"pink": [1e9, 0.0]})):
-            probe.put("robot/aibo/arena", encode(hostile))
-        probe.wait_for(lambda: probe.counter("aibo/aibo", "rejected") == 4, 10, "three hostile resets refused")
-        assert probe.counter("aibo/aibo", "resets") == resets and aibo.poll() is None
+        arena_on_request(probe, states, router)
+        assert aibo.poll() is None
 
         # watchdog: no fresh command -> the robot holds still
         held = probe.counter("aibo/aibo", "held")
@@ -82,3 +60,36 @@ def test_aibo_service_on_the_bus(router, tmp_path):
     finally:
         probe.close()
         assert stop(aibo) == [0]
+
+
+def ears_show_each_mode(probe: Probe, pub, states) -> int:
+    """Commands in each mode turn the ears to its colour; returns the last tick commanded."""
+    for mode in ("teacher", "student", "unsure"):
+        tick = probe.counter("aibo/aibo", "tick")  # one it has published (a later one is refused)
+        for _ in range(10):
+            pub.put(encode(Command(tick, time.time(), np.zeros(18), mode, "test/x", 1.0)))
+            time.sleep(0.02)
+        probe.wait_for(lambda: states and latest(states, RobotState, {}).ear_mode == mode, 10, f"ears {mode}")
+        rgba = latest(states, RobotState).ear_rgba
+        assert np.allclose(rgba, EAR_COLOURS[mode], atol=1e-3), (mode, rgba)
+    return tick
+
+
+def arena_on_request(probe: Probe, states, router: str) -> None:
+    """The arena on request: hide orange, pink at a known spot."""
+    probe.put("robot/aibo/arena", encode(ArenaReset(3, {"pink": [0.6, 0.0], "orange": None})))
+    probe.wait_for(lambda: probe.counter("aibo/aibo", "resets") == 1, 10, "the reset")
+    probe.wait_for(lambda: abs(latest(states, RobotState).balls["pink"][0] - 0.6) < 0.05, 10, "pink placed")
+    # the same from the command line, confirmed from the robot's state; a bad ball is refused by name
+    done = dogged_ok("arena", "--seed", "4", "--ball", "pink=0.7,0.2", "--ball", "orange=off", endpoint=router)
+    assert done.returncode == 0 and "pink [0.7, 0.2], orange off" in done.stdout, done.stderr
+    assert np.allclose(latest(states, RobotState).balls["pink"][:2], [0.7, 0.2], atol=0.05)
+    refused = dogged_ok("arena", "--ball", "blue=0.5,0", endpoint=router, timeout=30)
+    assert refused.returncode == 1 and "did not confirm the arena reset" in refused.stderr
+    # hostile but well-formed resets are refused before anything is reset (seed -1 crashed the Aibo
+    # after it had rebuilt the world: issue 12)
+    resets = probe.counter("aibo/aibo", "resets")
+    for hostile in (ArenaReset(-1, {}), ArenaReset(2 ** 40, {}), ArenaReset(1, {"pink": [1e9, 0.0]})):
+        probe.put("robot/aibo/arena", encode(hostile))
+    probe.wait_for(lambda: probe.counter("aibo/aibo", "rejected") == 4, 10, "three hostile resets refused")
+    assert probe.counter("aibo/aibo", "resets") == resets

@@ -19,68 +19,83 @@ from services.params import parse_params
 from services.teachers import TEACHERS, make_teacher
 
 
+class Demonstrator:
+    """The box's state: a teacher plugin, switched by the teach key, answering the newest input. Every
+    declaration goes through `session`, so a fake one drives it in unit tests."""
+
+    def __init__(self, session, keys: InstanceKeys, spaces, plugin, name: str, role: str, log):
+        self.session, self.keys, self.plugin, self.name, self.role, self.log = session, keys, plugin, name, role, log
+        self.inbox, self.rejects, self.counts = Inbox(), Rejects(log), collections.Counter()
+        self.dims = {"x": spaces.input.dims}
+        self.pub = sensor_publisher(session, keys.proposal(role, name))
+        self.switches = session.declare_subscriber(keys.teach, self.inbox.callback("teach"))
+        self.teaching = self.listening = None
+
+    def listen(self, on: bool) -> None:
+        """A silent teacher does not even hear the inputs: no wake-up per tick for nothing."""
+        if on and self.listening is None:
+            self.listening = self.session.declare_subscriber(self.keys.input, self.inbox.callback("input"))
+        elif not on and self.listening is not None:
+            self.listening.undeclare()
+            self.listening = None
+
+    def switch(self, on: bool) -> None:
+        if on and self.teaching is None:
+            # the token first: the arbitrator takes a teacher's proposals only while it holds one
+            self.teaching = self.session.liveliness().declare_token(self.keys.teaching(self.name))
+            self.listen(True)
+            self.log.info("teaching ON")
+        elif not on and self.teaching is not None:
+            self.teaching.undeclare()
+            self.teaching = None
+            self.listen(False)
+            self.log.info("teaching OFF")
+
+    def handle(self, batch) -> None:
+        """One drained batch: switches take effect in order; only the newest input is answered."""
+        newest = None
+        for tag, key, raw, _ in batch:
+            if tag == "teach":
+                msg = decode_or_reject(lambda: decode(TeachSwitch, raw, key), self.rejects, key)
+                if msg is not None and msg.teacher in ("", self.name) and self.role == "teacher":
+                    self.switch(msg.on)
+                    self.counts["switches"] += 1
+            else:
+                msg = decode_or_reject(lambda: decode(Input, raw, key, self.dims), self.rejects, key)
+                if msg is not None:
+                    self.counts["inputs"] += 1
+                    newest = msg  # latest-only: a stale input is not worth answering
+        if newest is not None and (self.teaching is not None or self.role == "default"):
+            y, confidence = self.plugin(newest.x)
+            mask = getattr(self.plugin, "mask", None) if y is not None else None
+            self.pub.put(encode(Proposal(newest.tick, f"{self.role}/{self.name}", y, float(confidence), mask)))
+            self.counts["proposals"] += 1
+
+    def status(self) -> tuple[dict, dict]:
+        return dict(self.counts, rejected=self.rejects.total), {"teaching": self.teaching is not None}
+
+
 def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: str, role: str = "teacher",
          start_on: bool = False) -> int:
     log = setup_logging(role, name)
-    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
-    rejects, counts = Rejects(log), collections.Counter()
+    stop, keys = StopFlag(), InstanceKeys(instance)
     with zenoh.open(conf) as session:
         spaces = fetch_spaces(session, keys, stop, log)
         if spaces is None:
             return 0
-        plugin = make_teacher(teacher, spaces, **params)
-        dims = {"x": spaces.input.dims}
-        pub = sensor_publisher(session, keys.proposal(role, name))
-        held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.declare_subscriber(keys.teach, inbox.callback("teach")))
+        box = Demonstrator(session, keys, spaces, make_teacher(teacher, spaces, **params), name, role, log)
+        alive = session.liveliness().declare_token(keys.alive(role, name))  # undeclared once unreferenced
         status = StatusPublisher(session, keys.status(role, name), role, name)
-        held.append(session.liveliness().declare_token(keys.alive(role, name)))
-        teaching = listening = None
+        box.listen(role == "default")
+        box.switch(start_on and role == "teacher")
 
-        def listen(on: bool):
-            # a silent teacher does not even hear the inputs: no wake-up per tick for nothing
-            nonlocal listening
-            if on and listening is None:
-                listening = session.declare_subscriber(keys.input, inbox.callback("input"))
-            elif not on and listening is not None:
-                listening.undeclare()
-                listening = None
-
-        def switch(on: bool):
-            nonlocal teaching
-            if on and teaching is None:
-                # the token first: the arbitrator takes a teacher's proposals only while it holds one
-                teaching = session.liveliness().declare_token(keys.teaching(name))
-                listen(True)
-                log.info("teaching ON")
-            elif not on and teaching is not None:
-                teaching.undeclare()
-                teaching = None
-                listen(False)
-                log.info("teaching OFF")
-
-        listen(role == "default")
-        switch(start_on and role == "teacher")
+        def report():
+            counters, state = box.status()
+            return counters, dict(state, teacher=teacher)
         while not stop:
-            newest = None
-            for tag, key, raw, _ in inbox.drain(0.1):
-                if tag == "teach":
-                    msg = decode_or_reject(lambda: decode(TeachSwitch, raw, key), rejects, key)
-                    if msg is not None and msg.teacher in ("", name) and role == "teacher":
-                        switch(msg.on)
-                        counts["switches"] += 1
-                else:
-                    msg = decode_or_reject(lambda: decode(Input, raw, key, dims), rejects, key)
-                    if msg is not None:
-                        counts["inputs"] += 1
-                        newest = msg  # latest-only: a stale input is not worth answering
-            if newest is not None and (teaching is not None or role == "default"):
-                y, confidence = plugin(newest.x)
-                mask = getattr(plugin, "mask", None) if y is not None else None
-                pub.put(encode(Proposal(newest.tick, f"{role}/{name}", y, float(confidence), mask)))
-                counts["proposals"] += 1
-            status.maybe_publish(lambda: (dict(counts, rejected=rejects.total),
-                                          {"teaching": teaching is not None, "teacher": teacher}))
+            box.handle(box.inbox.drain(0.1))
+            status.maybe_publish(report)
+        alive.undeclare()
     return 0
 
 

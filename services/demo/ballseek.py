@@ -11,10 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from services.demo.live import LiveRun
-from services.experiments.ballseek import BALLSEEK_RATE_HZ, FAR, NEAR, ball_in_view, ball_spot
-from services.experiments.ballseek_protocol import (ORANGE_FAR, TEACHING_EPISODE_SECONDS, TEACHING_SCHEDULE,
-                                                   arena_seed, phase_rng)
+from bus_schema import RobotState
+from services.demo.live import LiveRun, decoded
+from services.experiments.ballseek import BALLS, BALLSEEK_RATE_HZ, ball_in_view
+from services.experiments import ballseek_protocol as protocol
+from services.experiments.ballseek_protocol import ORANGE_FAR, TEACHING_SCHEDULE, Teaching, schedule_end
 from services.experiments.evaluate import asking_rate, figure5_error, half_range, plot_error
 from services.experiments.judges import REACH_RADIUS, nose_distance
 from services.experiments.user import ScriptedUser
@@ -57,27 +58,62 @@ PHASE_LABELS = {"taught": "taught", "student": "pink alone", "orange_before": "o
 PHASE_BALL = {"student": "pink", "orange_before": "orange", "orange_after": "orange"}  # the ball each puts down
 
 
-def episode(run: LiveRun, arena: int, balls: dict, seconds: float, rate: float, target: str = "pink",
-            stop_when_reached: bool = False) -> float | None:
-    """One episode: a fresh arena, then `seconds` of ticks; returns when the nose first came within
-    0.2 m of the target ball (seconds from the start), or None."""
-    run.reset_arena(arena, balls)
-    time.sleep(0.2)  # let the reset land before judging
-    start_tick, first_state = run.tick(), len(run.recorded[run.robot.state])
-    want = np.array(balls[target])
-    reached_at = None
-    while run.tick() < start_tick + seconds * rate:
-        run.run_ticks(1)
-        for state in run.states(first_state):
-            ball = np.array(state.balls.get(target, [np.inf] * 3))
-            if np.linalg.norm(ball[:2] - want) > 0.05:  # a state from before the reset
-                continue
-            if reached_at is None and nose_distance(state.nose, ball) < REACH_RADIUS:
-                reached_at = (run.tick() - start_tick) / rate
-        first_state = len(run.recorded[run.robot.state])
-        if reached_at is not None and stop_when_reached:
-            break
-    return reached_at
+class LiveStage:
+    """The protocol's stage over the bus: the arena key rebuilds the arena, the teach key switches the
+    teacher, and the robot's recorded states judge whether the nose reached the ball."""
+
+    def __init__(self, run: LiveRun, rate: float):
+        self.run, self.rate, self.first_tick = run, rate, run.tick()
+        self.teaching, self.taught_ticks = False, 0
+
+    @property
+    def clock(self) -> float:
+        return (self.run.tick() - self.first_tick) / self.rate
+
+    def switch(self, on: bool) -> None:
+        if on != self.teaching:
+            self.run.teach(on)
+            self.teaching = on
+
+    def episode(self, arena: int, balls: dict, seconds: float, teaching: Teaching = False,
+                target: str | None = None) -> float | None:
+        first_state = len(self.run.recorded[self.run.robot.state])
+        self.run.reset_arena(arena, {name: balls.get(name) for name in BALLS})
+        first_state = self.landed(balls, first_state)
+        start = self.run.tick()
+        while self.run.tick() < start + seconds * self.rate:
+            unsure = self.run.mode() == "unsure"
+            self.switch(teaching.teaching(self.clock, unsure) if isinstance(teaching, ScriptedUser) else teaching)
+            before = self.run.tick()
+            self.run.run_ticks(1)
+            self.taught_ticks += (self.run.tick() - before) * self.teaching
+            if target is not None and self.reached(balls[target], target, first_state):
+                return (self.run.tick() - start) / self.rate
+            first_state = len(self.run.recorded[self.run.robot.state])
+        return None
+
+    def landed(self, balls: dict, since: int, timeout: float = 10.0) -> int:
+        """Waits for the first state recorded from index `since` with every ball where it was put (the
+        reset has landed); returns that state's index."""
+        recorded, end = self.run.recorded[self.run.robot.state], time.monotonic() + timeout
+        while time.monotonic() < end:
+            for i in range(since, len(recorded)):
+                state = decoded(RobotState, *recorded[i][:2])
+                if state is not None and all(at_spot(state, name, spot) for name, spot in balls.items()):
+                    return i
+            since = len(recorded)
+            time.sleep(0.005)
+        raise TimeoutError(f"the robot's state did not show the arena reset with {balls} within {timeout:g} s")
+
+    def reached(self, spot, target: str, first_state: int) -> bool:
+        """Whether a state recorded since `first_state`, after the reset, has the nose at the ball."""
+        return any(at_spot(state, target, spot) and nose_distance(state.nose, state.balls[target]) < REACH_RADIUS
+                   for state in self.run.states(first_state))  # (a ball standing elsewhere: before the reset)
+
+
+def at_spot(state: RobotState, ball: str, spot) -> bool:
+    """Whether `state` shows `ball` within 5 cm of where it was put."""
+    return ball in state.balls and np.linalg.norm(np.array(state.balls[ball][:2]) - np.array(spot)) <= 0.05
 
 
 def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: str = "slots",
@@ -132,62 +168,15 @@ def start_ballseek(run_dir: Path, endpoint: str, learner: str | None = None, see
     return run
 
 
-def teach_phase(run: LiveRun, schedule, seed: int, rate: float, answer_probability: float = 0.0) -> int:
-    """The scripted user teaches on `schedule` (sim seconds) over fresh arenas with only the pink
-    ball, a new one every 15 s, and answers the robot's unsure requests (green ears) with
-    `answer_probability`; returns how many ticks were taught."""
-    user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
-    rng = phase_rng(seed, "teach")
-    t0, teaching, taught = run.tick(), False, 0
-    end = schedule[-1][1] if schedule else 0.0
-    while (run.tick() - t0) / rate < end:
-        arena = arena_seed(rng)
-        run.reset_arena(arena, {"pink": ball_spot(rng, arena=arena), "orange": None})
-        episode_start = run.tick()
-        while (run.tick() - episode_start) / rate < TEACHING_EPISODE_SECONDS and (run.tick() - t0) / rate < end:
-            want = user.teaching((run.tick() - t0) / rate, run.mode() == "unsure")
-            if want != teaching:
-                run.teach(want)
-                teaching = want
-            run.run_ticks(1)
-            taught += teaching
-    run.teach(False)
-    return taught
-
-
-def ball_episodes(run: LiveRun, count: int, seconds: float, seed: int, phase: str, rate: float,
-                  target: str = "pink", far: float = FAR, on_episode=None) -> list:
-    """`count` student-only episodes with only the `target` ball: time to reach it, or None each."""
-    rng, other = phase_rng(seed, phase), "orange" if target == "pink" else "pink"
-    results = []
-    for i in range(count):
-        arena = arena_seed(rng)
-        results.append(episode(run, arena, {target: ball_spot(rng, NEAR, far, arena=arena), other: None}, seconds,
-                               rate, target=target, stop_when_reached=True))
-        if on_episode:
-            on_episode(i, results[-1])
-    return results
-
-
-def correct_orange(run: LiveRun, seconds: float, seed: int, rate: float) -> None:
-    """A short correction: the teacher (which ignores orange) drives while the person keeps putting
-    the orange ball down in front of the robot, every 3 s."""
-    rng = phase_rng(seed, "correct")
-    run.teach(True)
-    for _ in range(int(round(seconds / 3.0))):
-        arena = arena_seed(rng)
-        spot = ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), arena=arena)
-        run.reset_arena(arena, {"orange": spot, "pink": None})
-        run.run_ticks(int(3.0 * rate))
-    run.teach(False)
-
-
 def run_ballseek_live(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0, episodes: int = 6,
                       episode_seconds: float = 30.0, orange_episodes: int = 3, orange_seconds: float = 20.0,
-                      correction_seconds: float = 20.0, schedule=TEACHING_SCHEDULE, rate: float = BALLSEEK_RATE_HZ,
-                      layout: str = "slots", answer_probability: float = 0.0, log=print) -> dict:
-    """Teach on `schedule`; `episodes` student-only pink episodes; then, unless `orange_episodes`
-    is 0, that many orange-only episodes, a correction with orange in view, and as many again."""
+                      correction_seconds: float = 20.0, schedule=TEACHING_SCHEDULE, teach_seconds: float = 60.0,
+                      rate: float = BALLSEEK_RATE_HZ, layout: str = "slots", answer_probability: float = 0.0,
+                      log=print) -> dict:
+    """The protocol of services/experiments/ballseek_protocol.py over the bus: teach on `schedule`
+    (until `teach_seconds` of it are given); `episodes` student-only pink episodes; then, unless
+    `orange_episodes` is 0, that many orange-only episodes, a correction with orange in view, and as
+    many again."""
     started = time.monotonic()
 
     def say(text: str) -> None:
@@ -202,32 +191,34 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str | None = None, 
                "episodes": episodes}
     try:
         say(f"all services ready; teaching with the pink ball (schedule {schedule}, simulated seconds)")
-        t0 = run.tick()
-        summary["taught_s"] = teach_phase(run, schedule, seed, rate, answer_probability) / rate
-        say(f"taught {summary['taught_s']:.0f} s; the student alone now")
-        phases = {"taught": (t0, run.tick())}
+        stage, phases = LiveStage(run, rate), {}
 
-        def phase(name: str, work):
+        def phase(name: str, work):  # each phase ends with the teacher off
             start = run.tick()
             result = work()
+            stage.switch(False)
             phases[name] = (start, run.tick())
             return result
-        reach = phase("student", lambda: ball_episodes(run, episodes, episode_seconds, seed, "episodes", rate,
-                                                       on_episode=report("pink")))
+        user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
+        phase("taught", lambda: protocol.teach(stage, user, schedule_end(schedule, teach_seconds), seed))
+        summary["taught_s"] = stage.taught_ticks / rate
+        say(f"taught {summary['taught_s']:.0f} s; the student alone now")
+        reach = phase("student", lambda: protocol.episodes(stage, seed, "episodes", episodes, episode_seconds,
+                                                           "pink", on_episode=report("pink")))
         summary.update(successes=sum(r is not None for r in reach), reach_s=reach)
         if orange_episodes:
             say("the orange ball alone, never seen while taught: does the student chase it like the pink one?")
-            before = phase("orange_before", lambda: ball_episodes(run, orange_episodes, orange_seconds, seed,
-                                                                  "orange_before", rate, target="orange", far=ORANGE_FAR,
-                                                                  on_episode=report("orange")))
+            before = phase("orange_before", lambda: protocol.episodes(
+                stage, seed, "orange_before", orange_episodes, orange_seconds, "orange", far=ORANGE_FAR,
+                on_episode=report("orange")))
             say(f"correction: {correction_seconds:.0f} s of teaching with the orange ball in front of the robot")
-            phase("correction", lambda: correct_orange(run, correction_seconds, seed, rate))
-            after = phase("orange_after", lambda: ball_episodes(run, orange_episodes, orange_seconds, seed,
-                                                                "orange_after", rate, target="orange", far=ORANGE_FAR,
-                                                                on_episode=report("orange")))
+            phase("correction", lambda: protocol.correct(stage, correction_seconds, seed))
+            after = phase("orange_after", lambda: protocol.episodes(
+                stage, seed, "orange_after", orange_episodes, orange_seconds, "orange", far=ORANGE_FAR,
+                on_episode=report("orange")))
             summary.update(orange_episodes=orange_episodes, orange_before=sum(r is not None for r in before),
                            orange_after=sum(r is not None for r in after))
-        summary.update(figure5(run, rate, run_dir, first_tick=t0, layout=layout, phases=phases),
+        summary.update(figure5(run, rate, run_dir, first_tick=phases["taught"][0], layout=layout, phases=phases),
                        figure5_png=str(run_dir / "figure5.png"))
     finally:
         code = run.close()

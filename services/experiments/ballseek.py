@@ -22,12 +22,13 @@ from services.experiments.judges import REACH_RADIUS, nose_to_ball
 from services.experiments.loop import Trace, tick
 from services.perception.blobs import BlobDetector
 from services.perception.slots import BlobSlots
-from services.platforms.aibo.arena_layout import EYE_HEIGHT, arena_layout, in_sight
+from services.platforms.aibo.arena_layout import EYE_HEIGHT, arena_layout, in_sight, touches_clutter
 from services.platforms.aibo.platform import AiboPlatform
 from services.teachers.ballseek import ball_seek_teacher
 
 BALLSEEK_RATE_HZ = 5.0
 INPUT_LAYOUTS = ("colours", "slots")
+BALLS = ("pink", "orange")  # the arena's balls; an experiment shows some and hides the others
 NEAR, FAR = 0.5, 1.3  # ball distances (m) from the robot: beyond ~1.4 m a ball is under 6 pixels
 MAX_DRAWS = 1000
 
@@ -36,14 +37,15 @@ def ball_spot(rng: np.random.Generator, near: float = NEAR, far: float = FAR, be
               pose=((0.0, 0.0), 0.0), arena: int | None = None) -> tuple[float, float]:
     """A floor point `near`..`far` metres from the robot at `pose` ((x, y), yaw), bearing in the range
     given (radians, left positive), in the robot's frame. With `arena` (its seed), the point is drawn
-    again until the robot can see it from where it stands: a person puts the ball down in view,
-    not behind the clutter (where a robot that searches by turning on the spot never finds it)."""
+    again until the robot can see it from where it stands and it touches no clutter: a person puts
+    the ball down in view, not behind the clutter (where a robot that searches by turning on the spot
+    never finds it) nor against it (where physics pushes it away, rolling)."""
     (x0, y0), yaw = pose
     layout = arena_layout(arena) if arena is not None else None
     for _ in range(MAX_DRAWS):
         distance, angle = rng.uniform(near, far), yaw + rng.uniform(*bearing)
         spot = float(x0 + distance * np.cos(angle)), float(y0 + distance * np.sin(angle))
-        if layout is None or in_sight(layout, spot, eye=(x0, y0, EYE_HEIGHT)):
+        if layout is None or (not touches_clutter(layout, spot) and in_sight(layout, spot, eye=(x0, y0, EYE_HEIGHT))):
             return spot
     raise RuntimeError(f"no spot {near}-{far} m from {pose} in sight in arena {arena} after {MAX_DRAWS} draws")
 
@@ -80,7 +82,7 @@ class BallWorld:
         """New episode: arena from `arena_seed`; `balls` maps colour to (x, y), absent colours hidden."""
         self.arena = arena_seed
         self.platform.reset(arena_seed)
-        for name in ("pink", "orange"):
+        for name in BALLS:
             if name in balls:
                 self.sim.place_ball(name, balls[name])
             else:
@@ -95,16 +97,14 @@ class BallWorld:
         return self._slots.encode(blobs) if self._slots else blobs
 
     def run(self, seconds: float, learner, teacher=None, user=None, trace: Trace | None = None,
-            target: str | None = None, on_tick=None) -> float | None:
+            target: str | None = None) -> float | None:
         """Algorithm 2 for `seconds`; the teacher is on while `user.teaching(t, unsure)` says so (always
         if user is None). Stops when the nose is within REACH_RADIUS of the `target` ball and returns
-        the episode time then (None if never). `on_tick(world, t)` lets a script move things."""
+        the episode time then (None if never)."""
         dt = 1.0 / self.rate_hz
         unsure = False
         for _ in range(int(round(seconds * self.rate_hz))):
             t = self.sim.sim_time
-            if on_tick is not None:
-                on_tick(self, t)
             x = self.observe()
             on = teacher is not None and (user is None or user.teaching(self.clock + t, unsure))
             decision, y_hat, confidence = tick(x, [("teacher/ballseek", teacher)] if on else [], learner,

@@ -1,11 +1,15 @@
 """The ball-seeking protocol: teaching by a scripted user, student-only episodes, and the orange
 ball before and after a short correction. Each phase draws its arenas and ball spots from its
 own seeded stream, so the evaluation episodes are never the teaching ones.
+
+The phases are written once, against a `Stage`: `WorldStage` runs them in this process (the
+benchmark), `services.demo.ballseek.LiveStage` over the bus with every box a process (the demo).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
 
@@ -18,7 +22,21 @@ from services.learners import DEFAULT_LEARNER, make_learner
 TEACHING_SCHEDULE = ((0.0, 30.0), (40.0, 60.0), (70.0, 80.0))  # 60 s of teaching over 80 s, as in Figure 5
 TEACHING_EPISODE_SECONDS = 15.0  # the person puts the ball elsewhere after this, or once reached
 ORANGE_FAR = 1.0  # orange episodes are 20 s, so the ball is put where the teacher reaches it in time
+CORRECTION_PUT_SECONDS = 3.0  # during the correction the person puts the orange ball down this often
 PHASES = {"teach": 1, "episodes": 2, "orange_before": 3, "correct": 4, "orange_after": 5, "pink_after": 6}
+
+Teaching = ScriptedUser | bool  # the teacher on when the user says, always, or never
+
+
+class Stage(Protocol):
+    clock: float  # simulated seconds since the protocol began
+
+    def episode(self, arena: int, balls: dict, seconds: float, teaching: Teaching = False,
+                target: str | None = None) -> float | None:
+        """Rebuild the arena from its seed with `balls` (colour -> (x, y); the others hidden), then run
+        `seconds` of Algorithm 2 with the teacher on as `teaching` says (a user is asked every tick
+        with the time on `clock` and whether the robot is unsure). Stops when the nose reaches the
+        `target` ball and returns the episode's time then; None if it never did."""
 
 
 def phase_rng(seed: int, phase: str) -> np.random.Generator:
@@ -29,57 +47,70 @@ def arena_seed(rng: np.random.Generator) -> int:
     return int(rng.integers(1_000_000))
 
 
-def teach(world: BallWorld, learner, teacher, user: ScriptedUser, seconds: float, trace: Trace, seed: int) -> None:
-    """`seconds` of Algorithm 2 over fresh arenas with only the pink ball; the teacher is on when the
-    user says. A new arena and ball spot each time the ball is reached or after 15 s."""
-    rng, start = phase_rng(seed, "teach"), world.clock
-    while world.clock - start < seconds - 1e-9:
+def teach(stage: Stage, user: ScriptedUser, seconds: float, seed: int) -> None:
+    """`seconds` over fresh arenas with only the pink ball; the teacher is on when the user says. A
+    new arena and ball spot each time the ball is reached or after 15 s."""
+    rng, start = phase_rng(seed, "teach"), stage.clock
+    while stage.clock - start < seconds - 1e-9:
         arena = arena_seed(rng)
-        world.start(arena, {"pink": ball_spot(rng, arena=arena)})
-        length = min(TEACHING_EPISODE_SECONDS, seconds - (world.clock - start))
-        world.run(length, learner, teacher, user, trace, target="pink")
+        balls = {"pink": ball_spot(rng, arena=arena)}
+        stage.episode(arena, balls, min(TEACHING_EPISODE_SECONDS, seconds - (stage.clock - start)), user, "pink")
 
 
-def episodes(world: BallWorld, learner, seed: int, phase: str, count: int, seconds: float, target: str,
-             trace: Trace | None = None, teacher=None, far: float | None = None, in_view: bool = True) -> list:
-    """`count` episodes of `seconds` with only the `target` ball, the student alone (or the teacher,
-    if given: its own score on the same episodes). Returns the time each reached it, or None.
-    in_view=False puts the ball anywhere in the ring, behind the clutter too."""
+def episodes(stage: Stage, seed: int, phase: str, count: int, seconds: float, target: str,
+             far: float | None = None, in_view: bool = True, teaching: Teaching = False, on_episode=None) -> list:
+    """`count` episodes of `seconds` with only the `target` ball, the student alone (teaching=True:
+    the teacher's own score on the same episodes). Returns the time each reached it, or None.
+    in_view=False puts the ball anywhere in the ring, behind the clutter too. `on_episode(i, result)`
+    hears of each as it ends."""
     rng = phase_rng(seed, phase)
     results = []
-    for _ in range(count):
+    for i in range(count):
         arena = arena_seed(rng)
-        world.start(arena, {target: ball_spot(rng, NEAR, far or FAR, arena=arena if in_view else None)})
-        results.append(world.run(seconds, learner, teacher, None, trace, target=target))
+        balls = {target: ball_spot(rng, NEAR, far or FAR, arena=arena if in_view else None)}
+        results.append(stage.episode(arena, balls, seconds, teaching, target))
+        if on_episode is not None:
+            on_episode(i, results[-1])
     return results
 
 
-def correct(world: BallWorld, learner, teacher, seconds: float, trace: Trace, seed: int) -> None:
-    """A short correction with the orange ball in view: the person keeps putting it down in front of
-    the robot (every 3 s) while the teacher, which ignores orange, drives."""
+def correct(stage: Stage, seconds: float, seed: int) -> None:
+    """A short correction: the teacher, which ignores orange, drives while the person keeps putting
+    the orange ball down in front of the robot in a fresh arena, every 3 s."""
     rng = phase_rng(seed, "correct")
-
-    due = [3.0]
-
-    def put_orange_ahead(w: BallWorld, t: float) -> None:
-        if t >= due[0]:
-            due[0] += 3.0
-            w.sim.place_ball("orange", ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), pose=w.pose(),
-                                                        arena=w.arena))
-
-    arena = arena_seed(rng)
-    world.start(arena, {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), arena=arena)})
-    world.run(seconds, learner, teacher, None, trace, on_tick=put_orange_ahead)
+    for _ in range(max(1, round(seconds / CORRECTION_PUT_SECONDS))):
+        arena = arena_seed(rng)
+        balls = {"orange": ball_spot(rng, NEAR, ORANGE_FAR, bearing=(-0.4, 0.4), arena=arena)}
+        stage.episode(arena, balls, CORRECTION_PUT_SECONDS, True)
 
 
-def answer_requests(world: BallWorld, learner, teacher, count: int, seconds: float, trace: Trace, seed: int) -> None:
+def answer_requests(stage: Stage, count: int, seconds: float, seed: int) -> None:
     """The correction left to the robot's initiative: `count` orange-only episodes in which the person
     switches the teacher on for 2 s whenever the robot asks (green ears), and at no other time."""
     rng, user = phase_rng(seed, "correct"), ScriptedUser(answer_probability=1.0, seed=seed)
     for _ in range(count):
         arena = arena_seed(rng)
-        world.start(arena, {"orange": ball_spot(rng, NEAR, ORANGE_FAR, arena=arena)})
-        world.run(seconds, learner, teacher, user, trace, target="orange")
+        stage.episode(arena, {"orange": ball_spot(rng, NEAR, ORANGE_FAR, arena=arena)}, seconds, user, "orange")
+
+
+@dataclass
+class WorldStage:
+    """The protocol in this process: Algorithm 2 ticked by hand on a BallWorld."""
+    world: BallWorld
+    learner: object
+    teacher: object
+    trace: Trace | None = None
+
+    @property
+    def clock(self) -> float:
+        return self.world.clock
+
+    def episode(self, arena: int, balls: dict, seconds: float, teaching: Teaching = False,
+                target: str | None = None) -> float | None:
+        self.world.start(arena, balls)
+        teacher = None if teaching is False else self.teacher
+        user = teaching if isinstance(teaching, ScriptedUser) else None
+        return self.world.run(seconds, self.learner, teacher, user, self.trace, target)
 
 
 CORRECTIONS = ("scheduled", "answers")
@@ -140,6 +171,7 @@ def run_ballseek(seed: int, learner_name: str = DEFAULT_LEARNER, teach_seconds: 
     learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed, **hyper_parameters)
     user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
     trace, phases = Trace(), {}
+    stage = WorldStage(world, learner, teacher, trace)
 
     def phase(name: str, run):
         start = world.clock
@@ -147,20 +179,19 @@ def run_ballseek(seed: int, learner_name: str = DEFAULT_LEARNER, teach_seconds: 
         phases[name] = (start, world.clock)
         return result
     try:
-        phase("taught", lambda: teach(world, learner, teacher, user, schedule_end(schedule, teach_seconds), trace, seed))
+        phase("taught", lambda: teach(stage, user, schedule_end(schedule, teach_seconds), seed))
         taught = float(np.sum(trace.teaching)) / world.rate_hz
-        reach = phase("pink alone", lambda: episodes(world, learner, seed, "episodes", n_episodes, episode_seconds,
-                                                     "pink", trace))
-        before = phase("orange", lambda: episodes(world, learner, seed, "orange_before", n_orange, orange_seconds,
-                                                  "orange", trace, far=ORANGE_FAR))
+        reach = phase("pink alone", lambda: episodes(stage, seed, "episodes", n_episodes, episode_seconds, "pink"))
+        before = phase("orange", lambda: episodes(stage, seed, "orange_before", n_orange, orange_seconds, "orange",
+                                                  far=ORANGE_FAR))
         if correction == "scheduled":
-            phase("correction", lambda: correct(world, learner, teacher, correction_seconds, trace, seed))
+            phase("correction", lambda: correct(stage, correction_seconds, seed))
         else:
-            phase("correction", lambda: answer_requests(world, learner, teacher, n_orange, orange_seconds, trace, seed))
-        after = phase("orange after", lambda: episodes(world, learner, seed, "orange_after", n_orange, orange_seconds,
-                                                       "orange", trace, far=ORANGE_FAR))
-        pink_after = phase("pink after", lambda: episodes(world, learner, seed, "pink_after", n_pink_after,
-                                                          episode_seconds, "pink", trace))
+            phase("correction", lambda: answer_requests(stage, n_orange, orange_seconds, seed))
+        after = phase("orange after", lambda: episodes(stage, seed, "orange_after", n_orange, orange_seconds, "orange",
+                                                       far=ORANGE_FAR))
+        pink_after = phase("pink after", lambda: episodes(stage, seed, "pink_after", n_pink_after, episode_seconds,
+                                                          "pink"))
     finally:
         world.close()
     return BallSeekResult(taught, reach, [r is not None for r in before], [r is not None for r in after], pink_after,
@@ -187,8 +218,8 @@ def teacher_success(seed: int, n_episodes: int = 20, episode_seconds: float = 30
     try:
         teacher = world.make_teacher()
         unused = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)  # never asked: the teacher is always on
-        reach = episodes(world, unused, seed, phase, n_episodes, episode_seconds, "pink", teacher=teacher,
-                         in_view=in_view)
+        reach = episodes(WorldStage(world, unused, teacher), seed, phase, n_episodes, episode_seconds, "pink",
+                         in_view=in_view, teaching=True)
     finally:
         world.close()
     return float(np.mean([r is not None for r in reach]))

@@ -24,6 +24,7 @@ import zenoh
 from bus_schema import (ArenaReset, Clock, Command, ControlReply, Handle, Input, Proposal, SelectLearner, Status,
                         TeachSwitch, TrainingPair, decode, encode)
 from bus_schema.keys import supervisor_key
+from services.bus import wait_matching
 from services.demo.live import LiveRun, decoded
 from services.demo.mirroring import student_error
 from services.experiments.faults import mirroring_profile
@@ -264,29 +265,9 @@ def run_fuzz(run_dir: Path, endpoint: str, n_payloads: int = 9000, n_queries: in
         refused_before = run_ps_refused(run)
         epoch, seq = arbitrator_epoch(run)
         todo = cases(rng, run.keys, run.robot, n_payloads, epoch, seq)
-        publishers = {}
         start, sent_commands = time.monotonic(), len(run.recorded[run.keys.command])
-        for i, case in enumerate(todo):
-            pub = publishers.get(case.key)
-            if pub is None:
-                pub = publishers[case.key] = run.session.declare_publisher(
-                    case.key, congestion_control=zenoh.CongestionControl.BLOCK, reliability=zenoh.Reliability.RELIABLE)
-                end = time.monotonic() + 3
-                while not pub.matching_status.matching and time.monotonic() < end:
-                    time.sleep(0.01)
-            pub.put(case.payload)
-            result.sent[case.what] += 1
-            for service in case.counted_by:
-                result.expected[service] += 1
-            if i % 200 == 199:
-                time.sleep(0.05)  # a stranger's flood, not a denial of service: the loop's rate is measured
-        for query in queries(rng, run.keys, "faults", n_queries):
-            replies, errors = ask(run.session, query)
-            result.queries += 1
-            result.query_errors += errors
-            for service in query.counted_by:
-                result.expected[service] += 1
-            result.sent[f"query: {query.what}"] += 1
+        send_payloads(run, todo, result)
+        send_queries(run, queries(rng, run.keys, "faults", n_queries), result)
         elapsed = time.monotonic() - start
         result.rate_during = arbitrated(run, sent_commands) / elapsed
         time.sleep(3.0)  # every status refreshed
@@ -319,6 +300,33 @@ def run_fuzz(run_dir: Path, endpoint: str, n_payloads: int = 9000, n_queries: in
         held.undeclare()
         run.close()
     return result
+
+
+def send_payloads(run: LiveRun, todo: list, result: FuzzResult) -> None:
+    """Put every case on its key, reliably, counting what each service should reject."""
+    publishers = {}
+    for i, case in enumerate(todo):
+        pub = publishers.get(case.key)
+        if pub is None:
+            pub = publishers[case.key] = run.session.declare_publisher(
+                case.key, congestion_control=zenoh.CongestionControl.BLOCK, reliability=zenoh.Reliability.RELIABLE)
+            wait_matching(pub, 3.0)
+        pub.put(case.payload)
+        result.sent[case.what] += 1
+        for service in case.counted_by:
+            result.expected[service] += 1
+        if i % 200 == 199:
+            time.sleep(0.05)  # a stranger's flood, not a denial of service: the loop's rate is measured
+
+
+def send_queries(run: LiveRun, todo, result: FuzzResult) -> None:
+    for query in todo:
+        _, errors = ask(run.session, query)
+        result.queries += 1
+        result.query_errors += errors
+        for service in query.counted_by:
+            result.expected[service] += 1
+        result.sent[f"query: {query.what}"] += 1
 
 
 def run_ps_refused(run: LiveRun) -> dict:

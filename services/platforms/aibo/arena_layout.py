@@ -80,6 +80,16 @@ def _segment_hits_box(start: np.ndarray, end: np.ndarray, box: Clutter) -> bool:
     return True
 
 
+def touches_clutter(layout: Layout, xy, radius: float = BALL_RADIUS) -> bool:
+    """Would a ball of `radius` at `xy` touch a clutter box? (Physics would push it out, rolling.)"""
+    for box in layout.clutter:
+        c, s = np.cos(-box.yaw), np.sin(-box.yaw)
+        dx, dy = float(xy[0]) - box.centre[0], float(xy[1]) - box.centre[1]
+        if abs(c * dx - s * dy) <= box.half[0] + radius and abs(s * dx + c * dy) <= box.half[1] + radius:
+            return True
+    return False
+
+
 def in_sight(layout: Layout, xy, eye=(0.0, 0.0, EYE_HEIGHT)) -> bool:
     """Can a robot whose camera is at `eye` see a ball at `xy` past the clutter? True when the line
     to the ball's centre or to its top is clear (turning on the spot, it will face it)."""
