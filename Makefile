@@ -16,6 +16,7 @@ demo: $(STAMP)
 	$(VENV)/bin/dogged demo
 
 test: $(STAMP)
+	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest -q
 
 bench: $(STAMP)

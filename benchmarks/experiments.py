@@ -54,7 +54,8 @@ def run_mirroring(seeds, learner: tuple[str, dict], sizes: dict, out: Path) -> d
     one, two, plots = [], [], {}
     for seed in tqdm(seeds, desc="mirroring, one teacher", file=sys.stderr):
         result = mirroring.one_teacher(seed, learner[0], max_teach=sizes["max_teach"], **learner[1])
-        one.append({"seed": seed, "teach_s": result.teach_seconds, "final_err": result.final_error, "curve": result.curve})
+        one.append({"seed": seed, "teach_s": result.teach_seconds, "final_err": result.final_error,
+                    "curve": result.curve})
         if seed == seeds[0]:
             plots["mirror_one"] = figure5(out, f"mirror_one_seed{seed}", result.trace,
                                           mirroring.mirroring_error(result.trace, spaces),
@@ -97,7 +98,8 @@ def run_ballseeking(seeds, learner: tuple[str, dict], sizes: dict, out: Path, in
             row["teacher_pink_after"] = teacher_success(seed, sizes["pink_after"], inputs=inputs, phase="pink_after")
         rows.append(row)
         if seed == seeds[0]:
-            plots[name] = figure5(out, f"{name}_seed{seed}", r.trace, ballseek.ballseek_error(r.trace, r.spaces, r.teacher),
+            plots[name] = figure5(out, f"{name}_seed{seed}", r.trace, ballseek.ballseek_error(r.trace, r.spaces,
+                                                                                              r.teacher),
                                   f"Ball seeking, {inputs} layout, {correction} correction (seed {seed}): "
                                   "RMS error / half range", 10, r.phases)
     return {"rows": rows, "plots": plots}
@@ -202,13 +204,15 @@ def table(s: dict, sizes: dict) -> str:
              share("4 asks for teaching, orange in view, after correction", "asks_orange_after"),
              share("    asks for teaching, pink in view, student alone", "asks_pink", "sure of what it was taught"),
              share("    after the correction, reaches pink (pooled)", "pink_after_correction", "responds only to pink"),
-             row("      baseline: the teacher on the same episodes", percent(s["pink_after_correction_teacher"]), "", ""),
+             row("      baseline: the teacher on the same episodes", percent(s["pink_after_correction_teacher"]), "",
+                 ""),
              row(f"    correction by answering its requests ({s['orange_answers_seeds']} seeds): teaching",
                  f"{s['orange_answers_taught_s']:.1f} s", f"{s['orange_answers_taught_s_worst']:.1f} s",
                  "short (< 10 s) activations"),
              share("      then approaches orange (pooled)", "orange_after_answers"),
              share("      then reaches pink (pooled)", "pink_after_correction_answers"),
-             share(f"    contrast: per-colour layout, before ({s['orange_colours_seeds']} seeds)", "orange_before_colours"),
+             share(f"    contrast: per-colour layout, before ({s['orange_colours_seeds']} seeds)",
+                   "orange_before_colours"),
              share("    contrast: per-colour layout, after", "orange_after_colours"),
              row("5 Figure 5: error falls in the first teaching span",
                  f"{sum(s['figure5_error_falls'].values())}/{len(s['figure5_error_falls'])}", "", "falls / every plot"),
@@ -244,7 +248,8 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=10, help="seeds per experiment (default 10)")
     parser.add_argument("--quick", action="store_true", help="shortened runs, a minute or two")
-    parser.add_argument("--out", type=Path, default=None, help="where PNGs and data go (default runs/experiments-<time>/)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="where PNGs and data go (default runs/experiments-<time>/)")
     parser.add_argument("--learner", default=None,
                         help="learner of every experiment (default: each as its deploy profile wires it)")
     args = parser.parse_args()

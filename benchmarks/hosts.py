@@ -127,15 +127,16 @@ def print_lessons(runs: dict) -> None:
     print("-" * 104)
     for scheme, results in runs.items():
         lessons = [lesson for _, lesson in results]
-        print(f"{scheme:<24} {' '.join(_s(l.taught_s if l.learned else None) for l in lessons):>20} "
-              f"{' '.join(f'{l.error_rad:.4f}' for l in lessons):>16} {str([l.rounds for l in lessons])[:40]:>40}")
+        taught = " ".join(_s(lesson.taught_s if lesson.learned else None) for lesson in lessons)
+        errors = " ".join(f"{lesson.error_rad:.4f}" for lesson in lessons)
+        print(f"{scheme:<24} {taught:>20} {errors:>16} {str([lesson.rounds for lesson in lessons])[:40]:>40}")
     print(f"targets: noticed under 1 s, healed under 2 s, mirroring under 5 s of teaching over the lossy link "
           f"(the brain joins over {BRAIN_LINK})")
 
 
 def figures(one_host, wired, teacher_cuts: dict, brain, runs: dict) -> dict:
     chosen = runs[BRAIN_LINK]
-    taught = [l.taught_s if l.learned else float("inf") for _, l in chosen]
+    taught = [lesson.taught_s if lesson.learned else float("inf") for _, lesson in chosen]
     return {"partition_detect_s": _worst(p.detect_s for p in teacher_cuts.values()),
             "partition_heal_s": _worst(p.heal_s for p in teacher_cuts.values()),
             "brain_partition_resume_s": brain.resume_s,
@@ -152,7 +153,8 @@ def figures(one_host, wired, teacher_cuts: dict, brain, runs: dict) -> dict:
                                        "stale_share": [round(w.stale_share, 4) for w, _ in results],
                                        "tick_p50_ms": [w.latency_p50_ms for w, _ in results],
                                        "tick_p99_ms": [w.latency_p99_ms for w, _ in results],
-                                       "teach_s": [round(l.taught_s, 2) if l.learned else None for _, l in results]}
+                                       "teach_s": [round(lesson.taught_s, 2) if lesson.learned else None
+                                                   for _, lesson in results]}
                               for scheme, results in runs.items()}}
 
 

@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
-from services.learners.tasks import (  # noqa: E402
+from benchmarks.lib.tasks import (  # noqa: E402
     CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse,
     three_outputs, three_outputs_samples, worst_error,
 )
@@ -187,7 +187,8 @@ def print_table(rows, epochs: int) -> None:
           "multi3 = 12 inputs -> 3 outputs; nMSE on 2000 held-out points")
     print(f"{'learner':8} {'cross10 nMSE':>12} {'size':>5} {'multi3 nMSE':>12} {'size':>5}")
     for name, _, _, u, _, _ in rows:
-        print(f"{name:8} {u['cross10_nmse']:>12.3f} {u['cross10_size']:>5} {u['multi3_nmse']:>12.3f} {u['multi3_size']:>5}")
+        print(f"{name:8} {u['cross10_nmse']:>12.3f} {u['cross10_size']:>5} {u['multi3_nmse']:>12.3f} "
+              f"{u['multi3_size']:>5}")
 
 
 def print_closing_note(figures: dict, epochs: int) -> None:
@@ -198,7 +199,8 @@ def print_closing_note(figures: dict, epochs: int) -> None:
         ("cross receptive fields", figures["lwpr_cross_rfs"], ref["cross_rfs"], "d"),
         ("cross updates/s, learn_one", figures["lwpr_cross_updates_per_s"], ref["cross_updates_per_s"], ",.0f"),
         ("cross updates/s, learn_many", figures["lwpr_cross_batch_updates_per_s"], ref["cross_updates_per_s"], ",.0f"),
-        ("cross predictions/s, predict_one", figures["lwpr_cross_predictions_per_s"], ref["cross_predictions_per_s"], ",.0f"),
+        ("cross predictions/s, predict_one", figures["lwpr_cross_predictions_per_s"], ref["cross_predictions_per_s"],
+         ",.0f"),
         ("cross predictions/s, predict_many", figures["lwpr_cross_batch_predictions_per_s"],
          ref["cross_predictions_per_s"], ",.0f"),
         ("mirror samples to < 0.05 rad", figures["lwpr_mirror_samples_to_005"] or float("nan"),

@@ -16,21 +16,19 @@ import services  # noqa: E402,F401  (first: one BLAS thread per process, see ser
 
 import argparse
 import json
-import sys
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
-from benchmarks.udp_echo import round_trips  # noqa: E402
+from benchmarks.lib.udp_echo import round_trips  # noqa: E402
 from services.realtime import hold_low_latency  # noqa: E402
 from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
 
 
 def udp_floor(count: int) -> np.ndarray:
     port = free_port()
-    proc = dogged_python("benchmarks/udp_echo.py", str(port), "60")
+    proc = dogged_python("benchmarks/lib/udp_echo.py", str(port), "60")
     time.sleep(0.5)
     try:
         round_trips(port, 200, b"x" * 96)  # warm up

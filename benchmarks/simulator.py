@@ -17,10 +17,8 @@ import argparse
 import contextlib
 import json
 import os
-import sys
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -90,7 +88,8 @@ def main(quick: bool) -> dict:
     steps, rtf_max = control_steps_per_s(5 if quick else 20)
     cam = camera_pipeline(10 if quick else 30, camera_hz=60)
     figures = {"control_steps_per_s": round(steps, 1), "camera_fps": round(cam["camera_fps"], 1),
-               "realtime_factor": round(cam["realtime_factor"], 3), "control_hz_with_camera": round(cam["control_hz"], 1),
+               "realtime_factor": round(cam["realtime_factor"], 3), "control_hz_with_camera": round(cam["control_hz"],
+                                                                                                    1),
                "realtime_factor_unpaced": round(rtf_max, 2), "perception_ms_per_frame": cam["perception_ms"]}
     print(f"{'figure':<44}{'value':>10}")
     rows = [("control steps/s (10 ms each, physics alone)", figures["control_steps_per_s"]),

@@ -59,7 +59,8 @@ def fmt(value, digits: int = 3) -> str:
 def table(title: str, rows: dict) -> str:
     head = (f"{'learner':<12}{'RMS 10 s':>14}{'RMS 30 s':>14}{'RMS 60 s':>14}{'max |err|':>10}{'beyond':>8}"
             f"{'NaN':>7}{'sure RMS':>9}{'sure':>6}{'asks|wrong':>11}{'s/task':>7}")
-    lines = [title, "  (RMS: median / worst task, rad; beyond: past the taught range + 10 % of its span, rad, <= 0 never;"
+    lines = [title,
+             "  (RMS: median / worst task, rad; beyond: past the taught range + 10 % of its span, rad, <= 0 never;"
              " sure: share of answers with confidence > 0.75)", head, "-" * len(head)]
     for name, f in rows.items():
         lines.append(f"{name:<12}" + "".join(f"{fmt(f[f'rms_{s:.0f}s_median']):>7}/{fmt(f[f'rms_{s:.0f}s_worst']):<6}"
@@ -90,7 +91,8 @@ def main(n_tasks: int, first: int, quick: bool) -> dict:
     print(TARGETS)
     w = main_rows[base]
     return {"tasks": n_tasks, "first_task": first, "learner": f"per-output {base}",
-            "unknown_rms_30s_median": round(w["rms_30s_median"], 4), "unknown_rms_30s_worst": round(w["rms_30s_worst"], 4),
+            "unknown_rms_30s_median": round(w["rms_30s_median"], 4), "unknown_rms_30s_worst": round(w["rms_30s_worst"],
+                                                                                                    4),
             "unknown_max_abs_err": round(w["max_abs_err"], 4), "unknown_nan_share": w["nan_share"],
             "confident_rms": None if w["confident_rms"] is None else round(w["confident_rms"], 4),
             "asks_when_wrong": None if w["asks_when_wrong"] is None else round(w["asks_when_wrong"], 3),

@@ -3,8 +3,8 @@ from .codec import VERSION, decode, encode, pack_vector, unpack_vector
 from .errors import SchemaError
 from .keys import (EVERY_ALIVE, EVERY_STATUS, ROUTER, InstanceKeys, RobotKeys, check_name, router_token,
                    supervisor_key, supervisor_token)
-from .messages import (MODES, Applied, ArenaReset, Clock, Command, ControlReply, Frame, Handle, RobotState, Input, PairBatch, Proposal, SelectLearner, Snapshot,
-                       SpacesMessage, Status, TeachSwitch, TrainingPair)
+from .messages import (MODES, Applied, ArenaReset, Clock, Command, ControlReply, Frame, Handle, Input, PairBatch,
+                       Proposal, RobotState, SelectLearner, Snapshot, SpacesMessage, Status, TeachSwitch, TrainingPair)
 from .spaces import Box, Spaces
 
 __all__ = ["VERSION", "decode", "encode", "pack_vector", "unpack_vector", "SchemaError", "InstanceKeys",

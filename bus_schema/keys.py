@@ -12,11 +12,30 @@ def check_name(kind: str, name: str) -> str:
     return name
 
 
-class InstanceKeys:
-    """Key expressions of one DL instance (see bus_schema/README.md for the table)."""
+class _Keys:
+    """Keys under one checked name; `every()`: the same keys with '*' for it, patterns over every
+    one (access control)."""
+    KIND = ""
 
-    def __init__(self, instance: str):
-        self.instance = check_name("instance", instance)
+    def __init__(self, name: str):
+        self._build(check_name(self.KIND, name))
+
+    @classmethod
+    def every(cls):
+        keys = cls.__new__(cls)
+        keys._build("*")
+        return keys
+
+    def _build(self, name: str) -> None:
+        raise NotImplementedError
+
+
+class InstanceKeys(_Keys):
+    """Key expressions of one DL instance (see bus_schema/README.md for the table)."""
+    KIND = "instance"
+
+    def _build(self, instance: str) -> None:
+        self.instance = instance
         p = self.prefix = f"dl/{instance}"
         self.input = f"{p}/input"
         self.command = f"{p}/command"
@@ -58,11 +77,12 @@ class InstanceKeys:
         return None
 
 
-class RobotKeys:
+class RobotKeys(_Keys):
     """Key expressions of one robot's own streams, under robot/<name>/ (shared by the DL instances on it)."""
+    KIND = "robot"
 
-    def __init__(self, robot: str):
-        self.robot = check_name("robot", robot)
+    def _build(self, robot: str) -> None:
+        self.robot = robot
         p = self.prefix = f"robot/{robot}"
         self.camera = f"{p}/camera"
         self.clock = f"{p}/clock"

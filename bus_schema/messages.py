@@ -103,7 +103,8 @@ class PairBatch:
 
     def check(self, key: str) -> None:
         if not len(self.x) == len(self.y) == len(self.mask):
-            raise SchemaError(key, "y", f"{len(self.y)} rows of y and {len(self.mask)} of mask for {len(self.x)} inputs")
+            raise SchemaError(key, "y",
+                              f"{len(self.y)} rows of y and {len(self.mask)} of mask for {len(self.x)} inputs")
 
 
 @dataclass(frozen=True, slots=True)

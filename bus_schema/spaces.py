@@ -34,18 +34,21 @@ class Box:
 
     def contains(self, values: np.ndarray, tol: float = 1e-9) -> bool:
         v = np.asarray(values, dtype=np.float64)
-        return v.shape == (self.dims,) and bool(np.all(v >= np.asarray(self.low) - tol) and np.all(v <= np.asarray(self.high) + tol))
+        low, high = np.asarray(self.low) - tol, np.asarray(self.high) + tol
+        return v.shape == (self.dims,) and bool(np.all(v >= low) and np.all(v <= high))
 
     @classmethod
-    def uniform(cls, dims: int, low: float, high: float, name: str = "x", unit: str = "") -> "Box":
-        return cls((low,) * dims, (high,) * dims, tuple(f"{name}{i}" for i in range(dims)), (unit,) * dims if unit else ())
+    def uniform(cls, dims: int, low: float, high: float, name: str = "x", unit: str = "") -> Box:
+        names = tuple(f"{name}{i}" for i in range(dims))
+        return cls((low,) * dims, (high,) * dims, names, (unit,) * dims if unit else ())
 
     def to_dict(self) -> dict:
         return {"low": list(self.low), "high": list(self.high), "names": list(self.names), "units": list(self.units)}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Box":
-        return cls(tuple(map(float, d["low"])), tuple(map(float, d["high"])), tuple(d.get("names", ())), tuple(d.get("units", ())))
+    def from_dict(cls, d: dict) -> Box:
+        return cls(tuple(map(float, d["low"])), tuple(map(float, d["high"])), tuple(d.get("names", ())),
+                   tuple(d.get("units", ())))
 
 
 @dataclass(frozen=True)
@@ -60,5 +63,5 @@ class Spaces:
         return {"input": self.input.to_dict(), "output": self.output.to_dict(), "extra": dict(self.extra)}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Spaces":
+    def from_dict(cls, d: dict) -> Spaces:
         return cls(Box.from_dict(d["input"]), Box.from_dict(d["output"]), dict(d.get("extra", {})))

@@ -19,7 +19,7 @@ def run_box(argv: list[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from services.bus import use_certificate
+    from services.bus.config import use_certificate
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["run"]:
         return run_box(argv[1:])
@@ -40,9 +40,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def verbs_parser() -> argparse.ArgumentParser:
     """`dogged <verb>`: the supervisor's verbs (`run` and `demo` parse their own arguments)."""
-    from services.bus import add_certificate_args
+    from services.bus.config import add_certificate_args
     parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
-    parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
+    parser.add_argument("--connect", default=None,
+                        help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
     parser.add_argument("--profile", default=None, help="which running profile (default: the only one)")
     add_certificate_args(parser)
     sub = parser.add_subparsers(dest="verb", required=True)
@@ -80,10 +81,12 @@ def verbs_parser() -> argparse.ArgumentParser:
     watch.add_argument("--settle", type=float, default=0.2, help="seconds a mode must hold before it is shown")
     watch.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: until Ctrl-C)")
     watch.add_argument("--bell", action="store_true", help="ring the terminal bell when the robot asks to be taught")
-    arena = sub.add_parser("arena", help="rebuild the robot's arena and put balls down: dogged arena --ball pink=0.8,0.2")
+    arena = sub.add_parser("arena",
+                           help="rebuild the robot's arena and put balls down: dogged arena --ball pink=0.8,0.2")
     arena.add_argument("--seed", type=int, default=0, help="arena seed: clutter and where the robot starts (default 0)")
     arena.add_argument("--ball", action="append", metavar="NAME=X,Y|NAME=off",
-                       help="put a ball at X,Y metres (the robot starts at 0,0 facing +x), or take it away (repeatable)")
+                       help="put a ball at X,Y metres (the robot starts at 0,0 facing +x), "
+                            "or take it away (repeatable)")
     arena.add_argument("--robot", default="aibo")
     return parser
 

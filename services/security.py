@@ -7,12 +7,13 @@ lets each role say only its part, as the paper's Figure 1 draws it:
 
 | who | alone may |
 |---|---|
-| platform (and chain) | publish inputs, robot state, camera and clock; answer `spaces` |
+| platform | publish inputs, applied commands, robot state, camera and clock; answer `spaces` |
+| chain, perception | publish an instance's inputs; answer its `spaces` |
 | handler | publish the robot's handle |
 | teacher | publish teacher proposals; hold teaching tokens |
 | learner | publish learner proposals; answer snapshot and history; hold learner tokens |
 | arbitrator | publish commands and training pairs; answer recent pairs; hold commanding tokens |
-| operator (a person) and supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor's verbs |
+| operator (a person), supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor |
 | supervisor | answer the supervisor's verbs |
 
 Everything else (subscribing, status, querying the owners) stays open to every identity. Services
@@ -28,28 +29,34 @@ import json
 import re
 from pathlib import Path
 
+from bus_schema.keys import SUPERVISOR, InstanceKeys, RobotKeys
+
 ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "operator",
          "supervisor", "router")
 _IDENTITY = re.compile(r"^([a-z]+)\.([a-z0-9][a-z0-9_-]{0,63})$")
 
 # (what, key expressions, the roles that alone may do it); ACL message kinds of Zenoh 1.x
 _PUT, _ANSWER, _TOKEN, _ASK = ["put", "delete"], ["declare_queryable", "reply"], ["liveliness_token"], ["query"]
+_I, _R = InstanceKeys.every(), RobotKeys.every()  # every key below comes from bus_schema
 OWNERS = (
-    ("inputs", _PUT, ["dl/*/input", "robot/*/state", "robot/*/camera", "robot/*/clock", "robot/*/applied"],
-     ("platform", "chain")),
-    ("spaces", _ANSWER, ["dl/*/spaces", "robot/*/spaces"], ("platform", "chain")),
-    ("handle", _PUT, ["robot/*/handle"], ("handler",)),
-    ("teacher proposals", _PUT, ["dl/*/proposal/teacher/**", "dl/*/proposal/default/**"], ("teacher",)),
-    ("teaching tokens", _TOKEN, ["dl/*/alive/teaching/**", "dl/*/alive/teacher/**"], ("teacher",)),
-    ("learner proposals", _PUT, ["dl/*/proposal/learner/**"], ("learner",)),
-    ("learner state", _ANSWER, ["dl/*/learner/**"], ("learner",)),
-    ("learner tokens", _TOKEN, ["dl/*/alive/learner/**"], ("learner",)),
-    ("commands", _PUT, ["dl/*/command", "dl/*/applied", "dl/*/train"], ("arbitrator",)),
-    ("recent pairs", _ANSWER, ["dl/*/train/recent"], ("arbitrator",)),
-    ("commanding tokens", _TOKEN, ["dl/*/alive/commanding/**", "dl/*/alive/arbitrator/**"], ("arbitrator",)),
-    ("operator verbs", _PUT, ["dl/*/teach", "dl/*/arbitrator/select", "robot/*/arena"], ("operator", "supervisor")),
-    ("supervisor verbs", _ASK, ["dogged/supervisor/**"], ("operator", "supervisor")),
-    ("supervisor answers", _ANSWER, ["dogged/supervisor/**"], ("supervisor",)),
+    # perception turns the camera into a DL instance's input (ball seeking): it says the input and its spaces
+    ("inputs", _PUT, [_I.input], ("platform", "chain", "perception")),
+    ("spaces", _ANSWER, [_I.spaces], ("platform", "chain", "perception")),
+    ("robot streams", _PUT, [_R.state, _R.camera, _R.clock], ("platform",)),
+    ("robot spaces", _ANSWER, [_R.spaces], ("platform",)),
+    ("handle", _PUT, [_R.handle], ("handler",)),
+    ("teacher proposals", _PUT, [_I.proposal("teacher", "**"), _I.proposal("default", "**")], ("teacher",)),
+    ("teaching tokens", _TOKEN, [_I.teaching("**"), _I.alive("teacher", "**")], ("teacher",)),
+    ("learner proposals", _PUT, [_I.proposal("learner", "**")], ("learner",)),
+    ("learner state", _ANSWER, [_I.snapshot("*"), _I.history("*")], ("learner",)),
+    ("learner tokens", _TOKEN, [_I.alive("learner", "**")], ("learner",)),
+    ("applied commands", _PUT, [_I.applied], ("platform",)),
+    ("commands", _PUT, [_I.command, _I.train], ("arbitrator",)),
+    ("recent pairs", _ANSWER, [_I.train_recent], ("arbitrator",)),
+    ("commanding tokens", _TOKEN, [_I.commanding("**"), _I.alive("arbitrator", "**")], ("arbitrator",)),
+    ("operator verbs", _PUT, [_I.teach, _I.select_learner, _R.arena], ("operator", "supervisor")),
+    ("supervisor verbs", _ASK, [f"{SUPERVISOR}/**"], ("operator", "supervisor")),
+    ("supervisor answers", _ANSWER, [f"{SUPERVISOR}/**"], ("supervisor",)),
 )
 
 
@@ -87,7 +94,7 @@ def access_control(identities: list[str]) -> dict:
     for cn in identities:
         by_role.setdefault(role_of(cn), []).append(cn)
     rules, policies = [], []
-    for i, (what, messages, keys, owners) in enumerate(OWNERS):
+    for i, (_what, messages, keys, owners) in enumerate(OWNERS):
         # the router forwards what its own access control let in: a peer takes that from it
         others = [role for role in by_role if role not in owners and role != "router"]
         if not others:
@@ -136,7 +143,7 @@ def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[
         role_of(cn)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    now = datetime.datetime.now(datetime.timezone.utc)
+    now = datetime.datetime.now(datetime.UTC)
 
     def certificate(cn: str, key, issuer_name, issuer_key, valid_days: int, extensions) -> x509.Certificate:
         builder = (x509.CertificateBuilder().subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)]))

@@ -8,7 +8,7 @@ import zenoh
 
 
 class FakePublisher:
-    def __init__(self, bus: "FakeSession", key: str):
+    def __init__(self, bus: FakeSession, key: str):
         self.bus, self.key = bus, key
         self.matching_status = types.SimpleNamespace(matching=True)
 

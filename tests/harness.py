@@ -12,7 +12,8 @@ from pathlib import Path
 import zenoh
 
 from bus_schema import EVERY_STATUS, Status, decode
-from services.bus import wait_matching, zenoh_config
+from services.bus.config import zenoh_config
+from services.bus.publishers import wait_matching
 from services.supervisor.process import dump_stacks_then_kill
 
 REPO = Path(__file__).resolve().parents[1]

@@ -14,7 +14,8 @@ from services.platforms.aibo.gait import leg_fk, leg_ik
 from services.platforms.aibo.model import URDF_PATH, build_urdf
 from services.platforms.aibo.sim import AiboSim
 
-EXPECTED_ORDER = tuple(f"{leg}_{j}" for leg in ("fl", "fr", "rl", "rr") for j in ("shoulder_pitch", "shoulder_roll", "knee")) + (
+EXPECTED_ORDER = tuple(f"{leg}_{j}" for leg in ("fl", "fr", "rl", "rr") for j in ("shoulder_pitch", "shoulder_roll",
+                                                                                  "knee")) + (
     "head_tilt", "head_pan", "head_nod", "mouth", "tail_tilt", "tail_pan")
 
 
@@ -37,7 +38,8 @@ def test_urdf_has_the_18_revolute_joints_with_their_limits():
     client = pybullet.connect(pybullet.DIRECT)
     try:
         robot = pybullet.loadURDF(str(URDF_PATH), physicsClientId=client)
-        info = [pybullet.getJointInfo(robot, j, physicsClientId=client) for j in range(pybullet.getNumJoints(robot, physicsClientId=client))]
+        info = [pybullet.getJointInfo(robot, j, physicsClientId=client) for j in range(pybullet.getNumJoints(robot,
+                                                                                                             physicsClientId=client))]
         revolute = {i[1].decode(): (i[8], i[9]) for i in info if i[2] == pybullet.JOINT_REVOLUTE}
         assert set(revolute) == set(JOINT_NAMES)
         for name, (low, high) in zip(JOINT_NAMES, JOINT_LIMITS):

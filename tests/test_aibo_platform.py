@@ -14,7 +14,8 @@ def test_joint_mode_spaces_are_the_18_named_joints_in_radians():
         for box in (platform.spaces.input, platform.spaces.output):
             assert box.names == JOINT_NAMES and set(box.units) == {"rad"}
             assert np.array_equal(box.low, JOINT_LIMITS[:, 0]) and np.array_equal(box.high, JOINT_LIMITS[:, 1])
-        assert platform.spaces.extra["camera"] == {"width": 208, "height": 160, "vertical_fov_deg": 45.2, "encoding": "jpeg"}
+        assert platform.spaces.extra["camera"] == {"width": 208, "height": 160, "vertical_fov_deg": 45.2,
+                                                   "encoding": "jpeg"}
 
 
 def test_move_mode_takes_forward_and_turn():
@@ -27,7 +28,8 @@ def test_move_mode_takes_forward_and_turn():
 
 def test_wrong_command_shape_says_what_to_send():
     with AiboPlatform(camera=False) as platform:
-        with pytest.raises(ValueError, match=r"expected 18 command values for the aibo in 'joints' mode, got shape \(17,\)"):
+        with pytest.raises(ValueError,
+                           match=r"expected 18 command values for the aibo in 'joints' mode, got shape \(17,\)"):
             platform.step(np.zeros(17), 0.05)
     with pytest.raises(ValueError, match="command must be one of"):
         AiboPlatform(command="fly")

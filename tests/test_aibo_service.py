@@ -69,7 +69,7 @@ def ears_show_each_mode(probe: Probe, pub, states) -> int:
         for _ in range(10):
             pub.put(encode(Command(tick, time.time(), np.zeros(18), mode, "test/x", 1.0)))
             time.sleep(0.02)
-        probe.wait_for(lambda: states and latest(states, RobotState, {}).ear_mode == mode, 10, f"ears {mode}")
+        probe.wait_for(lambda mode=mode: states and latest(states, RobotState, {}).ear_mode == mode, 10, f"ears {mode}")
         rgba = latest(states, RobotState).ear_rgba
         assert np.allclose(rgba, EAR_COLOURS[mode], atol=1e-3), (mode, rgba)
     return tick

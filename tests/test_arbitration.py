@@ -63,7 +63,8 @@ def test_every_strategy_answers_every_case(name):
     """Conformance for the strategy plug-in point: always a finite output of the right size."""
     s = STRATEGIES[name]()
     cases = [([], None, None), ([("teacher/t", P([1, 1], 1.0))], None, None),
-             ([], ("learner/l", P([2, 2], 0.0)), None), ([], ("learner/l", P([2, 2], 1.0)), ("default/d", P([0, 0], 1)))]
+             ([], ("learner/l", P([2, 2], 0.0)), None), ([], ("learner/l", P([2, 2], 1.0)), ("default/d", P([0, 0],
+                                                                                                            1)))]
     for teachers, learner, default in cases:
         d = s.decide(teachers, learner, default, HOLD)
         assert d.y.shape == (2,) and np.all(np.isfinite(d.y)) and d.mode in ("teacher", "student", "unsure")

@@ -19,7 +19,8 @@ def test_every_key_is_documented():
     i, r = InstanceKeys("i"), RobotKeys("r")
     keys = [v for v in vars(i).values() if isinstance(v, str) and v.startswith("dl/")]
     keys += [i.proposal("teacher", "<name>"), i.proposal("learner", "<name>"), i.alive("<role>", "<name>"),
-             i.teaching("<name>"), i.commanding("<name>"), i.status("<role>", "<name>"), i.snapshot("<name>"), i.history("<name>")]
+             i.teaching("<name>"), i.commanding("<name>"), i.status("<role>", "<name>"), i.snapshot("<name>"),
+             i.history("<name>")]
     keys += [v for v in vars(r).values() if isinstance(v, str) and v.startswith("robot/")]
     documented = [k.replace("dl/i/", "dl/<i>/").replace("robot/r/", "robot/<r>/") for k in keys
                   if not k.endswith("/**") and k not in (i.prefix, r.prefix)]

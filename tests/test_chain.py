@@ -2,7 +2,7 @@
 import numpy as np
 
 from bus_schema import Command, Input, SpacesMessage, decode
-from services.bus import ask_owner
+from services.bus.queries import ask_owner
 from tests.harness import Probe, dogged, dogged_ok, stop
 
 

@@ -40,7 +40,8 @@ def inp(tick, x=(0.25, 0.0)):
 
 
 def proposals(bus):
-    return [decode(Proposal, p, KEYS.proposal("teacher", "doubler")) for p in bus.on(KEYS.proposal("teacher", "doubler"))]
+    return [decode(Proposal, p, KEYS.proposal("teacher", "doubler")) for p in bus.on(KEYS.proposal("teacher",
+                                                                                                   "doubler"))]
 
 
 def test_silent_until_switched_on_then_it_answers_the_newest_input_only():

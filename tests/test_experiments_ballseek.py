@@ -85,7 +85,8 @@ def test_in_sight_agrees_with_the_physics_ray_test():
         agree = 0
         for x, y in spots:
             arena.place_ball("pink", (x, y))
-            clear = any(client.rayTest([0, 0, EYE_HEIGHT], [x, y, z])[0][0] in (-1, arena.balls["pink"]) for z in (0.04, 0.08))
+            clear = any(client.rayTest([0, 0, EYE_HEIGHT], [x, y, z])[0][0] in (-1, arena.balls["pink"]) for z in (0.04,
+                                                                                                                   0.08))
             agree += clear == in_sight(layout, (x, y))
     finally:
         client.disconnect()

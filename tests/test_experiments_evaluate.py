@@ -35,7 +35,8 @@ def test_error_over_time_is_rms_over_chosen_outputs_with_scale():
     teacher = np.array([[1.0, 0.0, 5.0], [0.0, 0.0, 0.0]])
     student = np.array([[0.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
     np.testing.assert_allclose(evaluate.error_over_time(teacher, student, outputs=[0, 1]), [np.sqrt(0.5), np.sqrt(2)])
-    np.testing.assert_allclose(evaluate.error_over_time(teacher, student, scale=[1, 2, 5]), [np.sqrt(2 / 3), np.sqrt(1 / 3)])
+    np.testing.assert_allclose(evaluate.error_over_time(teacher, student, scale=[1, 2, 5]), [np.sqrt(2 / 3),
+                                                                                             np.sqrt(1 / 3)])
 
 
 def test_teaching_bands_and_the_drop_within_the_first():

@@ -22,7 +22,8 @@ def test_mirror_teacher_spans_the_head_tilt_range_and_copies_pan():
     lowered, _ = teacher(x)
     assert raised[HEAD_TILT] == JOINT_LIMITS[HEAD_TILT, 1] and lowered[HEAD_TILT] == JOINT_LIMITS[HEAD_TILT, 0]
     assert raised[HEAD_PAN] == 0.3
-    assert MirrorTeacher(SPACES, axes="tilt").mask[HEAD_TILT] == 1 and MirrorTeacher(SPACES, axes="tilt").mask.sum() == 1
+    assert MirrorTeacher(SPACES, axes="tilt").mask[HEAD_TILT] == 1 and MirrorTeacher(SPACES,
+                                                                                     axes="tilt").mask.sum() == 1
 
 
 def test_a_partial_teacher_sets_its_axis_and_the_student_the_rest():

@@ -12,7 +12,7 @@ import pytest
 from bus_schema import Command, encode
 from services.arbitration.ticks import CONFIRMING, MAX_TICK_JUMP, TickTable
 from services.boxes import platform as box
-from services.bus import Rejects
+from services.bus.inbox import Rejects
 
 FAR = 2 ** 63 - 1
 

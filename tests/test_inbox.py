@@ -2,7 +2,7 @@
 import threading
 import time
 
-from services.bus import Inbox
+from services.bus.inbox import Inbox
 
 
 def test_drain_waits_for_a_first_item_then_takes_what_is_queued_without_waiting():

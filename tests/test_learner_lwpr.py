@@ -4,7 +4,7 @@ import pytest
 
 from services.learners import make_learner
 from services.learners.kernel_cache import drop_stale_numba_cache
-from services.learners.tasks import cross_training
+from benchmarks.lib.tasks import cross_training
 
 
 def test_interval_is_finite_on_data_and_infinite_without_support():
@@ -63,7 +63,7 @@ def test_norm_in_makes_scaled_inputs_equivalent():
 def test_long_stream_stays_stable():
     """Regression: rounding once cost a narrow field's exact fit its positive definite
     inverse after ~17,000 samples of cross among irrelevant inputs (nMSE 4 to 10^6)."""
-    from services.learners.tasks import cross, cross_embedded, nmse
+    from benchmarks.lib.tasks import cross, cross_embedded, nmse
 
     xs, ys = cross_embedded(40_000, seed=2)
     model = make_learner("lwpr", 10, 1)
@@ -98,7 +98,8 @@ def test_without_novelty_scale_the_exact_fits_leverage_still_sees_it():
     the exact fit has no data along that axis, so the query lies off its span."""
     model = _taught_with_one_input_constant(novelty_scale=0.0, exact_fit=True)
     assert model.predict_one([0.3, -0.2, 1.0]).confidence < 0.25
-    assert _taught_with_one_input_constant(novelty_scale=0.0, exact_fit=False).predict_one([0.3, -0.2, 1.0]).confidence > 0.5
+    assert _taught_with_one_input_constant(novelty_scale=0.0, exact_fit=False).predict_one([0.3, -0.2,
+                                                                                            1.0]).confidence > 0.5
 
 
 def test_snapshot_from_before_novelty_scale_restores_with_its_default():

@@ -2,7 +2,7 @@
 import numpy as np
 
 from services.learners import make_learner
-from services.learners.tasks import cross, nmse
+from benchmarks.lib.tasks import cross, nmse
 
 
 def test_long_stream_stays_stable():

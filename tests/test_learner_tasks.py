@@ -2,7 +2,7 @@
 import numpy as np
 
 from services.learners import make_learner
-from services.learners.tasks import (
+from benchmarks.lib.tasks import (
     CROSS_LWPR_PARAMS, cross_grid, cross_training, mirror_samples, nmse, worst_error,
 )
 

@@ -65,7 +65,8 @@ def test_watch_shows_the_robots_mode_as_a_person_switches_teaching(router, tmp_p
     watcher = None
     try:
         probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "commands") > 50, 60, "the loop to run")
-        watcher = subprocess.Popen([sys.executable, "-m", "services.cli", "--connect", router, "watch", "--seconds", "8"],
+        watcher = subprocess.Popen([sys.executable, "-m", "services.cli", "--connect", router, "watch", "--seconds",
+                                    "8"],
                                    cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(2.5)
         probe.put("dl/main/command", b"\x81\xa1v\x01")  # a map with a version and nothing else

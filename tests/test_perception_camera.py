@@ -29,7 +29,8 @@ def test_each_ball_is_seen_where_the_camera_projects_it(pink, orange):
             assert seen == 1, f"{name} not seen"
             expected = project(view, projection, centre)
             found = detector.to_pixels(x, y, WIDTH, HEIGHT)
-            assert np.hypot(*(np.array(found) - expected)) < TOLERANCE_PX, f"{name}: blob {found}, projection {expected}"
+            assert np.hypot(*(np.array(found) - expected)) < TOLERANCE_PX, \
+                f"{name}: blob {found}, projection {expected}"
             assert 0 < area < 0.2
 
 

@@ -39,7 +39,8 @@ def test_demonstrator_role_from_args(tmp_path):
     assert p.services[0].role == "default"
 
 
-LEARNERS = "[services.l]\nbox='learner'\n[services.k]\nbox='learner'\nargs=['--state-dir','own']\n[services.t]\nbox='demonstrator'\n"
+LEARNERS = ("[services.l]\nbox='learner'\n[services.k]\nbox='learner'\nargs=['--state-dir','own']\n"
+            "[services.t]\nbox='demonstrator'\n")
 
 
 @pytest.mark.parametrize("head, state", [

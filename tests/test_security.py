@@ -10,7 +10,7 @@ from services.security import access_control, identity, make_certs
 from tests.harness import dogged, free_port, stop
 
 IDENTITIES = ["router.router", "platform.aibo", "arbitrator.arbitrator", "learner.learner", "teacher.alice",
-              "operator.bob", "supervisor.main"]
+              "operator.bob", "supervisor.main", "perception.perception"]
 
 
 def session_config(endpoint: str, directory, cn: str) -> zenoh.Config:
@@ -60,15 +60,22 @@ FORBIDDEN_TO_A_TEACHER = ("dl/main/command", "dl/main/input", "dl/main/train", "
 
 def test_a_teacher_cannot_publish_what_only_others_may(secured):
     endpoint, directory, _ = secured
-    assert heard(endpoint, directory, "teacher.alice", puts(*FORBIDDEN_TO_A_TEACHER, "dl/main/proposal/teacher/alice")) \
+    assert heard(endpoint, directory, "teacher.alice", puts(*FORBIDDEN_TO_A_TEACHER,
+                                                            "dl/main/proposal/teacher/alice")) \
         == ["dl/main/proposal/teacher/alice"]
 
 
 def test_the_owners_can(secured):
     endpoint, directory, _ = secured
-    assert heard(endpoint, directory, "arbitrator.arbitrator", puts("dl/main/command", "dl/main/train")) \
+    assert heard(endpoint, directory, "arbitrator.arbitrator", puts("dl/main/command", "dl/main/train",
+                                                                    "dl/main/applied")) \
         == ["dl/main/command", "dl/main/train"]
-    assert heard(endpoint, directory, "platform.aibo", puts("dl/main/input")) == ["dl/main/input"]
+    # the platform reports what it applied (the rules once gave that key to the arbitrator)
+    assert heard(endpoint, directory, "platform.aibo", puts("dl/main/input", "dl/main/applied", "robot/aibo/camera")) \
+        == ["dl/main/applied", "dl/main/input", "robot/aibo/camera"]
+    # ball seeking's input is what perception makes of the camera (the rules once left it out)
+    assert heard(endpoint, directory, "perception.perception", puts("dl/main/input", "robot/aibo/camera")) \
+        == ["dl/main/input"]
     assert heard(endpoint, directory, "operator.bob", puts("dl/main/teach")) == ["dl/main/teach"]
 
 
@@ -137,7 +144,7 @@ def test_identities_and_rules_are_checked():
 def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch):
     """Services join as peers that link straight to each other over TLS (a hop fewer than through the
     router); a teacher's peer linked straight to the robot's still cannot command it."""
-    from services.bus import zenoh_config
+    from services.bus.config import zenoh_config
     endpoint, directory, _ = secured
 
     def peer(cn):

@@ -18,7 +18,8 @@ def tick(arb, t, n, answer_from=("learner/student",)):
     arb.on_input(KEYS.input, encode(Input(n, t, np.zeros(2))), t)
     for member in answer_from:
         role, name = member.split("/")
-        arb.on_proposal(f"{KEYS.prefix}/proposal/{role}/{name}", encode(Proposal(n, member, np.zeros(2), 0.9)), t + 0.001)
+        arb.on_proposal(f"{KEYS.prefix}/proposal/{role}/{name}", encode(Proposal(n, member, np.zeros(2), 0.9)),
+                        t + 0.001)
     for wait in (0.001, DEADLINE):
         before = arb.counts["commands"]
         arb.decide_ready(t + wait)

@@ -12,7 +12,7 @@ import zenoh
 from bus_schema import InstanceKeys, PairBatch, SpacesMessage, TrainingPair, encode
 from bus_schema.spaces import Box, Spaces
 from services.boxes.common import fetch_spaces
-from services.bus import zenoh_config
+from services.bus.config import zenoh_config
 from services.pairlog import PairLog, PairLogError
 
 

@@ -99,7 +99,7 @@ def test_a_service_that_will_not_stop_says_where_it_is_stuck_before_it_is_killed
     from services.supervisor.process import dump_stacks_then_kill
 
     stuck = tmp_path / "stuck.py"
-    stuck.write_text("import threading\nfrom services.bus import StopFlag\nstop = StopFlag()\n"
+    stuck.write_text("import threading\nfrom services.bus.lifecycle import StopFlag\nstop = StopFlag()\n"
                      "lock = threading.Lock()\nlock.acquire()\nprint('ready', flush=True)\n"
                      "lock.acquire()  # never returns: nothing looks at the stop flag\n")
     proc = subprocess.Popen([sys.executable, str(stuck)], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,

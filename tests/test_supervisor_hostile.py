@@ -6,7 +6,7 @@ import time
 import zenoh
 
 from bus_schema import ControlReply, Status, decode, encode, supervisor_key
-from services.bus import zenoh_config
+from services.bus.config import zenoh_config
 from tests.harness import dogged, dogged_ok, free_port, wait_until
 from tests.test_supervisor import PROFILE, ps
 

@@ -19,7 +19,8 @@ def test_a_random_head_map_taught_for_30_s_is_done_alone(tmp_path):
         run.teach(False)
         off = run.tick()
         run.run_ticks(int(15 * RATE))
-        error, n = student_error(run, off + 3, teacher=make_teacher("random-map", Spaces(JOINTS_BOX, JOINTS_BOX), **MAP))
+        error, n = student_error(run, off + 3, teacher=make_teacher("random-map", Spaces(JOINTS_BOX, JOINTS_BOX),
+                                                                    **MAP))
         commands = run.commands()
     finally:
         assert run.close() == 0

@@ -16,11 +16,12 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import (ArenaReset, Clock, Frame, Handle, InstanceKeys, RobotKeys, RobotState, SpacesMessage,
-                        decode, encode)
+from bus_schema import ArenaReset, Clock, Frame, Handle, InstanceKeys, RobotKeys, RobotState, SpacesMessage, encode
 from services.boxes.platform import PlatformLoop, finish, run_ticks
-from services.bus import (Inbox, StopFlag, add_bus_args, config_from_args, decode_or_reject, sensor_publisher,
-                          setup_logging)
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import sensor_publisher
 from services.perception.jpeg import encode_rgb
 from services.platforms.aibo.camera import HEIGHT, WIDTH
 from services.platforms.aibo.platform import AiboPlatform
@@ -77,14 +78,14 @@ class AiboLoop(PlatformLoop):
         self.sim.set_ear_mode(mode)
 
     def on_handle(self, key, raw):
-        msg = decode_or_reject(lambda: decode(Handle, raw, key, {"mask": 18, "q": 18}), self.rejects, key)
+        msg = decode_or_reject(Handle, raw, key, self.rejects, {"mask": 18, "q": 18})
         if msg is not None:
             self.handle_mask = msg.mask
             self.sim.set_handled(msg.mask.astype(bool), msg.q)
             self.counts["handled"] += 1
 
     def on_arena(self, key, raw):
-        msg = decode_or_reject(lambda: decode(ArenaReset, raw, key), self.rejects, key)
+        msg = decode_or_reject(ArenaReset, raw, key, self.rejects)
         if msg is None:
             return
         unknown = set(msg.balls) - set(self.sim.ball_positions())

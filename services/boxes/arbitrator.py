@@ -16,15 +16,15 @@ import uuid
 import numpy as np
 import zenoh
 
-from bus_schema import (Command, InstanceKeys, Input, PairBatch, Proposal, SelectLearner, TrainingPair, decode,
-                        encode)
+from bus_schema import Command, InstanceKeys, Input, PairBatch, Proposal, SelectLearner, TrainingPair, encode
 from services.arbitration.algorithm2 import decide, trains
 from services.arbitration.strategies import STRATEGIES, make_strategy
 from services.arbitration.ticks import TickTable
 from services.boxes.common import Membership, fetch_spaces
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          lossless_publisher, sensor_publisher, setup_logging)
-
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, lossless_publisher, sensor_publisher
 
 MISSES_BEFORE_IGNORED = 5
 
@@ -97,7 +97,7 @@ class Arbitrator:
 
     # --- handlers ---------------------------------------------------------------------------
     def on_input(self, key, raw, now):
-        msg = decode_or_reject(lambda: decode(Input, raw, key, {"x": self.dims["x"]}), self.rejects, key)
+        msg = decode_or_reject(Input, raw, key, self.rejects, {"x": self.dims["x"]})
         if msg is None:
             return
         try:
@@ -112,7 +112,7 @@ class Arbitrator:
         if len(parts) != 5 or parts[3] not in ("teacher", "learner", "default"):
             self.rejects(key, ValueError(f"{key}: not a proposal key (dl/<i>/proposal/<role>/<name>)"))
             return
-        msg = decode_or_reject(lambda: decode(Proposal, raw, key, {"y": self.dims["y"]}), self.rejects, key)
+        msg = decode_or_reject(Proposal, raw, key, self.rejects, {"y": self.dims["y"]})
         if msg is not None:
             self.counts["proposals"] += 1
             member = f"{parts[3]}/{parts[4]}"
@@ -121,7 +121,7 @@ class Arbitrator:
             self.table.add_proposal(member, msg, now)
 
     def on_select(self, key, raw, now):
-        msg = decode_or_reject(lambda: decode(SelectLearner, raw, key), self.rejects, key)
+        msg = decode_or_reject(SelectLearner, raw, key, self.rejects)
         if msg is not None:
             self.log.info("learner %s serves from now on (was %s)", msg.learner, self.active_learner())
             self.selected = msg.learner
@@ -141,7 +141,8 @@ class Arbitrator:
         xs = np.array([p.x for p in rows]).reshape(-1, self.dims["x"])
         ys = np.array([p.y for p in rows]).reshape(-1, self.dims["y"])
         masks = np.array([np.ones(self.dims["y"]) if p.mask is None else p.mask for p in rows]).reshape(ys.shape)
-        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys, masks)))
+        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys,
+                                                             masks)))
 
     # --- deciding ---------------------------------------------------------------------------
     def decide_ready(self, now):
@@ -180,7 +181,8 @@ class Arbitrator:
 
     def status(self) -> tuple[dict, dict]:
         counters = dict(self.counts, rejected=self.rejects.total, late_proposals=self.table.late)
-        state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq, "pending": len(self.table),
+        state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq,
+                 "pending": len(self.table),
                  "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts),
                  "not_waited_for": self.silent()}
         return counters, state
@@ -241,7 +243,8 @@ def cli(argv=None) -> int:
     parser.add_argument("--deadline-ms", type=float, default=20.0, help="how long a tick waits for proposals")
     parser.add_argument("--learner", default=None, help="the learner that serves first (default: the oldest alive)")
     parser.add_argument("--train-on", choices=("teacher", "all"), default="teacher",
-                        help="teacher: only teacher outputs train the learner; all: every output does (Alg. 2 literally)")
+                        help="teacher: only teacher outputs train the learner; "
+                             "all: every output does (Alg. 2 literally)")
     parser.add_argument("--error-threshold", type=float, default=None, help="predictive strategy (Algorithm 1)")
     add_bus_args(parser)
     args = parser.parse_args(argv)

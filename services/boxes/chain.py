@@ -16,10 +16,12 @@ import collections
 import numpy as np
 import zenoh
 
-from bus_schema import Box, Command, InstanceKeys, Input, Spaces, SpacesMessage, decode, encode
+from bus_schema import Box, Command, InstanceKeys, Input, Spaces, SpacesMessage, encode
 from services.boxes.common import fetch_spaces
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          sensor_publisher, setup_logging)
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, sensor_publisher
 
 
 class SpacesAt:
@@ -65,11 +67,11 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                 if tag == "spaces":
                     raw.reply(down.spaces, payload)
                 elif tag == "extra":
-                    msg = decode_or_reject(lambda: decode(Input, raw, key, {"x": len(latest_extra)}), rejects, key)
+                    msg = decode_or_reject(Input, raw, key, rejects, {"x": len(latest_extra)})
                     if msg is not None:
                         latest_extra = msg.x
                 else:
-                    msg = decode_or_reject(lambda: decode(Command, raw, key, {"y": n_up}), rejects, key)
+                    msg = decode_or_reject(Command, raw, key, rejects, {"y": n_up})
                     if msg is not None:
                         pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([msg.y, latest_extra]))))
                         counts["relayed"] += 1

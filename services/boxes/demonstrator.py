@@ -11,10 +11,12 @@ import collections
 
 import zenoh
 
-from bus_schema import InstanceKeys, Input, Proposal, TeachSwitch, decode, encode
+from bus_schema import InstanceKeys, Input, Proposal, TeachSwitch, encode
 from services.boxes.common import fetch_spaces
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          sensor_publisher, setup_logging)
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, sensor_publisher
 from services.params import parse_params
 from services.teachers import TEACHERS, make_teacher
 
@@ -56,12 +58,12 @@ class Demonstrator:
         newest = None
         for tag, key, raw, _ in batch:
             if tag == "teach":
-                msg = decode_or_reject(lambda: decode(TeachSwitch, raw, key), self.rejects, key)
+                msg = decode_or_reject(TeachSwitch, raw, key, self.rejects)
                 if msg is not None and msg.teacher in ("", self.name) and self.role == "teacher":
                     self.switch(msg.on)
                     self.counts["switches"] += 1
             else:
-                msg = decode_or_reject(lambda: decode(Input, raw, key, self.dims), self.rejects, key)
+                msg = decode_or_reject(Input, raw, key, self.rejects, self.dims)
                 if msg is not None:
                     self.counts["inputs"] += 1
                     newest = msg  # latest-only: a stale input is not worth answering

@@ -8,9 +8,11 @@ import argparse
 
 import zenoh
 
-from bus_schema import Clock, Handle, InstanceKeys, RobotKeys, decode, encode
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          sensor_publisher, setup_logging)
+from bus_schema import Clock, Handle, InstanceKeys, RobotKeys, encode
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, sensor_publisher
 from services.platforms.aibo.handler import MIRRORING_DISTRACTORS, OTHER_16, Handler
 
 DISTRACTORS = {"mirroring": MIRRORING_DISTRACTORS, "all": OTHER_16, "none": ()}
@@ -30,12 +32,13 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, ta
         while not stop:
             newest = None
             for _, key, raw, _ in inbox.drain(0.1):
-                newest = decode_or_reject(lambda: decode(Clock, raw, key), rejects, key) or newest
+                newest = decode_or_reject(Clock, raw, key, rejects) or newest
             if newest is not None:
                 mask, q = hands.at(newest.sim_time)
                 pub.put(encode(Handle(mask.astype(float), q)))
                 count += 1
-            status.maybe_publish(lambda: ({"handles": count, "rejected": rejects.total}, {"distractors": distractors}))
+            status.maybe_publish(lambda count=count: ({"handles": count, "rejected": rejects.total},
+                                                      {"distractors": distractors}))
         del held
     return 0
 

@@ -20,8 +20,11 @@ from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, S
                         encode)
 from services.arbitration.algorithm2 import learn_pair
 from services.boxes.common import fetch_spaces
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, ask_owner, config_from_args,
-                          decode_or_reject, sensor_publisher, setup_logging)
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.queries import ask_owner
 from services.learners import DEFAULT_LEARNER, LEARNERS, make_learner
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
@@ -54,7 +57,8 @@ class LearnerNode:
             # a new arbitrator run; once an epoch is known, a new one must be the arbitrator's: a stranger's
             # pair in an epoch of its own would otherwise be learned, and the real epoch's seqs reset
             if self.epoch and not self.confirmed(pair):
-                self.rejects(self.keys.train, ValueError(f"training pair of epoch {pair.epoch[:32]!r} (seq {pair.seq}), "
+                self.rejects(self.keys.train,
+                             ValueError(f"training pair of epoch {pair.epoch[:32]!r} (seq {pair.seq}), "
                                                          f"not {self.epoch}, and the arbitrator does not confirm it"))
                 return
             self.log.info("training epoch %s begins (arbitrator started)", pair.epoch)
@@ -260,10 +264,10 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
             newest, pairs = None, []
             for tag, key, raw, _ in inbox.drain(0.1):
                 if tag == "input":
-                    newest = decode_or_reject(lambda: decode(Input, raw, key, {"x": model.n_in}), node.rejects, key) \
+                    newest = decode_or_reject(Input, raw, key, node.rejects, {"x": model.n_in}) \
                         or newest
                 elif tag == "train":
-                    pair = decode_or_reject(lambda: decode(TrainingPair, raw, key, node.dims), node.rejects, key)
+                    pair = decode_or_reject(TrainingPair, raw, key, node.rejects, node.dims)
                     if pair is not None:
                         pairs.append(pair)
                 else:

@@ -11,10 +11,12 @@ import time
 
 import zenoh
 
-from bus_schema import Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, decode, encode
+from bus_schema import Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, encode
 from services.boxes.common import fetch_spaces
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          sensor_publisher, setup_logging)
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, sensor_publisher
 from services.perception.blobs import DEFAULT_COLOURS, BlobDetector
 from services.perception.jpeg import decode_rgb
 from services.perception.slots import BlobSlots
@@ -67,7 +69,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
                 if tag == "spaces":
                     raw.reply(keys.spaces, spaces_payload)
                 else:
-                    frame = decode_or_reject(lambda: decode(Frame, raw, key), rejects, key)
+                    frame = decode_or_reject(Frame, raw, key, rejects)
                     if frame is not None:
                         counts["skipped"] += newest is not None
                         newest = frame
@@ -82,8 +84,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
                 pub.put(encode(Input(newest.tick, newest.stamp, x)))
                 busy += time.perf_counter() - started
                 counts["frames"] += 1
-            status.maybe_publish(lambda: (dict(counts, rejected=rejects.total),
-                                          {"ms_per_frame": round(1e3 * busy / max(1, counts["frames"]), 3)}))
+            status.maybe_publish(lambda busy=busy: (dict(counts, rejected=rejects.total),
+                                                    {"ms_per_frame": round(1e3 * busy / max(1, counts["frames"]), 3)}))
         del held
     return 0
 

@@ -16,9 +16,11 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from bus_schema import Applied, Command, InstanceKeys, Input, SpacesMessage, decode, encode
-from services.bus import (Inbox, Rejects, StatusPublisher, StopFlag, add_bus_args, config_from_args, decode_or_reject,
-                          sensor_publisher, setup_logging)
+from bus_schema import Applied, Command, InstanceKeys, Input, SpacesMessage, encode
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher, sensor_publisher
 from services.params import parse_params
 from services.platforms import PLATFORMS, make_platform
 
@@ -75,7 +77,7 @@ class PlatformLoop:
                 self.unanswered.append(tick)
 
     def on_command(self, key, raw):
-        msg = decode_or_reject(lambda: decode(Command, raw, key, {"y": self.dims}), self.rejects, key)
+        msg = decode_or_reject(Command, raw, key, self.rejects, {"y": self.dims})
         if msg is None:
             return
         if not 1 <= msg.tick <= self.tick:
@@ -214,9 +216,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--name", default="platform")
     parser.add_argument("--platform", choices=sorted(PLATFORMS), default="point")
     parser.add_argument("--param", action="append", help="platform parameter name=value (repeatable)")
-    parser.add_argument("--rate", type=float, default=30.0, help="control rate in Hz; 0 = lockstep, as fast as answered")
+    parser.add_argument("--rate", type=float, default=30.0,
+                        help="control rate in Hz; 0 = lockstep, as fast as answered")
     parser.add_argument("--sim-hz", type=float, default=30.0, help="simulated ticks per second in lockstep")
-    parser.add_argument("--watchdog", type=float, default=0.5, help="seconds without a fresh command before holding still")
+    parser.add_argument("--watchdog", type=float, default=0.5,
+                        help="seconds without a fresh command before holding still")
     parser.add_argument("--max-ticks", type=int, default=0, help="stop after this many ticks (0: run until stopped)")
     parser.add_argument("--latency-log", default=None, help="save every tick latency (s) to this .npy file at exit")
     parser.add_argument("--summary", default=None, help="write tick counts (JSON) to this file at exit")
@@ -225,4 +229,5 @@ def cli(argv=None) -> int:
     add_bus_args(parser)
     args = parser.parse_args(argv)
     return main(config_from_args(args), args.instance, args.platform, parse_params(args.param), args.name,
-                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log, args.summary, args.command_from)
+                args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log, args.summary,
+                args.command_from)

@@ -7,7 +7,8 @@ import time
 import zenoh
 
 from bus_schema import ROUTER
-from services.bus import DEFAULT_ROUTER, StopFlag, setup_logging, zenoh_config
+from services.bus.config import DEFAULT_ROUTER, zenoh_config
+from services.bus.lifecycle import StopFlag, setup_logging
 
 
 def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTER) -> int:

@@ -7,7 +7,6 @@ import time
 from pathlib import Path
 
 
-
 def free_endpoint() -> str:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -20,9 +19,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episodes", type=int, default=6, help="student-only pink episodes (default 6)")
     parser.add_argument("--orange-episodes", type=int, default=3,
-                        help="orange-only episodes before and after the correction (default 3; 0 skips the orange ball)")
+                        help="orange-only episodes before and after the correction "
+                             "(default 3; 0 skips the orange ball)")
     parser.add_argument("--answer-unsure", type=float, default=0.0, metavar="P",
-                        help="between lessons, the scripted person answers the robot's requests (green ears) with probability P")
+                        help="between lessons, the scripted person answers the robot's requests (green ears) "
+                             "with probability P")
     parser.add_argument("--out", default=None, help="run folder (default runs/<timestamp>)")
     args = parser.parse_args(argv)
     if not 0.0 <= args.answer_unsure <= 1.0:

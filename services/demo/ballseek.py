@@ -154,7 +154,8 @@ def figure5(run: LiveRun, rate: float, out: Path, first_tick: int = 0, layout: s
 
 
 def start_ballseek(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0,
-                   rate: float = BALLSEEK_RATE_HZ, layout: str = "slots", learner_params: dict | None = None) -> LiveRun:
+                   rate: float = BALLSEEK_RATE_HZ, layout: str = "slots",
+                   learner_params: dict | None = None) -> LiveRun:
     """learner None: the learner and settings deploy/ballseek.toml wires."""
     if learner is None:
         learner, learner_params = wired_learner("ballseek")
@@ -183,8 +184,10 @@ def run_ballseek_live(run_dir: Path, endpoint: str, learner: str | None = None, 
         log(f"{time.monotonic() - started:5.1f} s  {text}")
 
     def report(ball: str):
-        return lambda i, reached: say(f"episode {i + 1}: " + (f"reached the {ball} ball in {reached:.1f} s"
-                                                               if reached is not None else f"did not reach the {ball} ball"))
+        def said(i: int, reached: float | None) -> None:
+            outcome = "not reached" if reached is None else f"reached in {reached:.1f} s"
+            say(f"episode {i + 1}: the {ball} ball {outcome}")
+        return said
 
     run = start_ballseek(run_dir, endpoint, learner, seed, rate, layout)
     summary = {"learner": learner or "{} {}".format(*wired_learner("ballseek")), "seed": seed, "layout": layout,

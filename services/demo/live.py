@@ -15,7 +15,8 @@ import zenoh
 
 from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, RobotKeys, RobotState, TeachSwitch,
                         decode, encode)
-from services.bus import lossless_publisher, wait_matching, zenoh_config
+from services.bus.config import zenoh_config
+from services.bus.publishers import lossless_publisher, wait_matching
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -154,9 +154,11 @@ class BallSeekResult:
         return float(np.sum(self._in_phase(phase)["teaching"])) / self.spaces.extra["rate_hz"]
 
 
-def run_ballseek(seed: int, learner_name: str = DEFAULT_LEARNER, teach_seconds: float = 60.0, schedule=TEACHING_SCHEDULE,
+def run_ballseek(seed: int, learner_name: str = DEFAULT_LEARNER, teach_seconds: float = 60.0,
+                 schedule=TEACHING_SCHEDULE,
                  answer_probability: float = 0.0, n_episodes: int = 20, episode_seconds: float = 30.0,
-                 n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0, n_pink_after: int = 5,
+                 n_orange: int = 5, orange_seconds: float = 20.0, correction_seconds: float = 20.0,
+                 n_pink_after: int = 5,
                  rate_hz: float = BALLSEEK_RATE_HZ, inputs: str = "slots", correction: str = "scheduled",
                  **hyper_parameters) -> BallSeekResult:
     """The whole V.B protocol for one seed. Teaching lasts until the schedule's teaching time
@@ -168,7 +170,8 @@ def run_ballseek(seed: int, learner_name: str = DEFAULT_LEARNER, teach_seconds: 
         raise ValueError(f"correction must be one of {CORRECTIONS}, got {correction!r}")
     world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
     teacher = world.make_teacher()
-    learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed, **hyper_parameters)
+    learner = make_learner(learner_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed,
+                           **hyper_parameters)
     user = ScriptedUser(schedule=schedule, answer_probability=answer_probability, seed=seed)
     trace, phases = Trace(), {}
     stage = WorldStage(world, learner, teacher, trace)
@@ -217,7 +220,8 @@ def teacher_success(seed: int, n_episodes: int = 20, episode_seconds: float = 30
     world = BallWorld(seed, rate_hz=rate_hz, inputs=inputs)
     try:
         teacher = world.make_teacher()
-        unused = make_learner("knn", world.spaces.input.dims, world.spaces.output.dims)  # never asked: the teacher is always on
+        unused = make_learner("knn", world.spaces.input.dims,
+                              world.spaces.output.dims)  # never asked: the teacher is always on
         reach = episodes(WorldStage(world, unused, teacher), seed, phase, n_episodes, episode_seconds, "pink",
                          in_view=in_view, teaching=True)
     finally:

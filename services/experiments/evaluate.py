@@ -82,7 +82,8 @@ def moving_average(values: np.ndarray, window: int) -> np.ndarray:
     return (cumulative[idx] - cumulative[lo]) / (idx - lo)
 
 
-def first_band_drop(t: np.ndarray, error: np.ndarray, teaching: np.ndarray, seconds: float = 1.0) -> tuple[float, float]:
+def first_band_drop(t: np.ndarray, error: np.ndarray, teaching: np.ndarray, seconds: float = 1.0) -> tuple[float,
+                                                                                                           float]:
     """Mean error over the first and over the last `seconds` of the first teaching span: the
     Figure 5 claim 'error goes high and then quickly falls' holds when the second is smaller."""
     bands = teaching_bands(t, teaching)
@@ -114,10 +115,12 @@ def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarra
                    label="robot asks (unsure)" if i == 0 else None)
     ax.plot(t, error, color="0.6", lw=0.6, label="error (per tick)")
     if smooth_window > 1:
-        ax.plot(t, moving_average(error, smooth_window), color="tab:blue", lw=1.4, label=f"mean of {smooth_window} ticks")
+        ax.plot(t, moving_average(error, smooth_window), color="tab:blue", lw=1.4,
+                label=f"mean of {smooth_window} ticks")
     for label, (start, stop) in (phases or {}).items():
         ax.axvline(start, color="0.3", lw=0.7, ls=":")
-        ax.text((start + stop) / 2, 1.0, label, transform=ax.get_xaxis_transform(), ha="center", va="bottom", fontsize=7)
+        ax.text((start + stop) / 2, 1.0, label, transform=ax.get_xaxis_transform(), ha="center", va="bottom",
+                fontsize=7)
     ax.set_xlabel("time (s, simulated)")
     ax.set_ylabel(ylabel)
     ax.set_title(title, pad=14 if phases else 6)

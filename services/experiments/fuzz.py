@@ -24,7 +24,7 @@ import zenoh
 from bus_schema import (ArenaReset, Clock, Command, ControlReply, Handle, Input, Proposal, SelectLearner, Status,
                         TeachSwitch, TrainingPair, decode, encode)
 from bus_schema.keys import supervisor_key
-from services.bus import wait_matching
+from services.bus.publishers import wait_matching
 from services.demo.live import LiveRun, decoded
 from services.demo.mirroring import student_error
 from services.experiments.faults import mirroring_profile
@@ -133,7 +133,8 @@ def hostile(cls, rng: np.random.Generator, epoch: str, seq: int) -> tuple[bytes,
         return encode(valid(Input, rng, int(rng.choice(FAR_TICKS)))), "an input tick from the far future"
     if cls is TrainingPair:
         if rng.random() < 0.5:
-            return encode(TrainingPair(f"fuzz{int(rng.integers(1000))}", int(rng.integers(1, 100)), 1, sample(rng, N_IN),
+            return encode(TrainingPair(f"fuzz{int(rng.integers(1000))}", int(rng.integers(1, 100)), 1, sample(rng,
+                                                                                                              N_IN),
                                        sample(rng, N_OUT), "teacher/fuzz")), "a pair in an epoch of its own"
         jump = seq + int(rng.choice([10 ** 9, 10 ** 12, 2 ** 62]))
         return encode(TrainingPair(epoch, jump, 1, sample(rng, N_IN), sample(rng, N_OUT), "teacher/fuzz")), \

@@ -107,7 +107,7 @@ class Hosts:
         self.teachers: dict[str, subprocess.Popen] = {}
 
     # --- bringing it up ------------------------------------------------------------------------
-    def __enter__(self) -> "Hosts":
+    def __enter__(self) -> Hosts:
         (self.run_dir / "lab").mkdir(parents=True, exist_ok=True)
         self.lab.__enter__()
         try:
@@ -134,7 +134,8 @@ class Hosts:
             raise RuntimeError(f"dogged certs: {made.stderr}")
         self.lab.run(ROBOT, [PY, "-m", "services.cli", "up", str(robot), "--quiet"], log=self.run_dir / "robot.log",
                      cwd=REPO)
-        self.lab.run(self.on(BRAIN), [PY, "-m", "services.cli", "up", str(brain), "--join", self.brain_router, "--quiet"],
+        self.lab.run(self.on(BRAIN), [PY, "-m", "services.cli", "up", str(brain), "--join", self.brain_router,
+                                      "--quiet"],
                      log=self.run_dir / "brain.log", cwd=REPO)
         for host in TEACHERS:
             self.start_teacher(host)
@@ -146,7 +147,8 @@ class Hosts:
     def start_teacher(self, host: str) -> subprocess.Popen:
         name, axes = TEACHERS[host]
         self.teachers[host] = self.lab.run(self.on(host), [
-            PY, "-m", "services.cli", "run", "demonstrator", "--instance", "main", "--name", name, "--teacher", "mirror",
+            PY, "-m", "services.cli", "run", "demonstrator", "--instance", "main", "--name", name, "--teacher",
+                                                           "mirror",
             "--param", f"axes={axes}", "--connect", self.router, "--security", str(self.certs),
             "--identity", f"teacher.{name}"], log=self.run_dir / f"{host}.log", cwd=REPO)
         return self.teachers[host]
@@ -175,7 +177,8 @@ class Hosts:
             command += ["--connect", self.router, "--security", str(self.certs), "--identity", identity]
         if host is None:
             return subprocess.run(command + list(args), cwd=REPO, capture_output=True, text=True, timeout=timeout)
-        return subprocess.run(self.lab.command(self.on(host), command + list(args)), cwd=REPO, capture_output=True, text=True,
+        return subprocess.run(self.lab.command(self.on(host), command + list(args)), cwd=REPO, capture_output=True,
+                              text=True,
                               timeout=timeout)
 
     def teach(self, host: str, on: bool) -> subprocess.CompletedProcess:

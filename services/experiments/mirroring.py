@@ -83,7 +83,8 @@ def held_out_error(learner, seed: int, seconds: float = 10.0, platform: AiboPlat
     platform = platform or AiboPlatform(seed=seed, command="joints", camera=False)
     try:
         platform.reset(seed + HELD_OUT_SEED_OFFSET)
-        run = MirrorRun(seed, learner, platform, Handler(seed=seed + HELD_OUT_SEED_OFFSET, distractors=MIRRORING_DISTRACTORS))
+        run = MirrorRun(seed, learner, platform, Handler(seed=seed + HELD_OUT_SEED_OFFSET,
+                                                         distractors=MIRRORING_DISTRACTORS))
         run.run(seconds, teachers={})
         error = mirroring_error(run.trace, platform.spaces)
         return float(np.sqrt(np.mean(error ** 2)))  # the RMS over every tick and head axis
@@ -138,7 +139,8 @@ def one_teacher(seed: int, learner_name: str = DEFAULT_LEARNER, max_teach: float
     return MirrorResult(teach_seconds_until(curve), curve, curve[-1][1], run.trace)
 
 
-def two_teachers(seed: int, learner_name: str = DEFAULT_LEARNER, seconds_each: float = 10.0, held_out_seconds: float = 10.0,
+def two_teachers(seed: int, learner_name: str = DEFAULT_LEARNER, seconds_each: float = 10.0,
+                 held_out_seconds: float = 10.0,
                  alone_seconds: float = 10.0, masked: bool = False, **hyper_parameters) -> MirrorResult:
     """Paper V.A with two partial teachers in turn: pan for `seconds_each`, then tilt; the student
     must then mirror both axes. curve: held-out error after the pan teacher and after both.

@@ -67,7 +67,8 @@ def score(seconds: float, answers: np.ndarray, confidence: np.ndarray, truth: np
     wrong = worst > WRONG
     sure = confidence > SURE
     return Checkpoint(seconds, float(np.sqrt(np.mean(error ** 2))), float(worst.max()), beyond, broken, len(answers),
-                      error[sure].ravel(), int(sure.sum()), int(wrong.sum()), int(np.sum(wrong & (confidence < UNSURE))),
+                      error[sure].ravel(), int(sure.sum()), int(wrong.sum()),
+                      int(np.sum(wrong & (confidence < UNSURE))),
                       float(np.median(confidence)))
 
 

@@ -22,6 +22,7 @@ from .sogp import SOGP
 DEFAULT_LEARNER = "gp"
 
 __all__ = [
-    "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction", "Predictions",
+    "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction",
+           "Predictions",
     "SOGP", "UnknownLearnerError", "make_learner",
 ]

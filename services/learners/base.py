@@ -158,7 +158,8 @@ class Learner:
 
     def _sane_one(self, y: np.ndarray, confidence: float, interval: np.ndarray | None) -> Prediction:
         """`_sane` for one answer, for learners with a fast predict_one of their own."""
-        many = self._sane(Predictions(y[None, :], np.array([confidence]), None if interval is None else interval[None, :]))
+        many = self._sane(Predictions(y[None, :], np.array([confidence]), None if interval is None else interval[None,
+                                                                                                                 :]))
         return Prediction(many.y[0], float(many.confidence[0]), None if interval is None else many.interval[0])
 
     def _bound(self, y: np.ndarray) -> np.ndarray:
@@ -208,7 +209,7 @@ class Learner:
     def get_params(self) -> dict:
         return {name: getattr(self, name) for name in self.param_names()}
 
-    def clone(self) -> "Learner":
+    def clone(self) -> Learner:
         """A fresh, unlearned learner with the same sizes, seed and hyper-parameters."""
         return type(self)(self.n_in, self.n_out, seed=self.seed, **self.get_params())
 
@@ -217,7 +218,7 @@ class Learner:
         return snapshot_codec.dump(self)
 
     @classmethod
-    def restore(cls, blob: bytes) -> "Learner":
+    def restore(cls, blob: bytes) -> Learner:
         """A learner from `snapshot()` bytes, which may come from the bus: only arrays, plain values and
         the learners' registered state classes are built, then the learner must answer a probe with
         finite numbers; anything else is a SnapshotError (the swapping learner learns the history)."""
@@ -226,7 +227,8 @@ class Learner:
             probe = model.predict_many(np.zeros((2, model.n_in)))
             sane = np.isfinite(probe.y).all() and np.isfinite(probe.confidence).all()
         except Exception as err:  # noqa: BLE001 - state that does not fit together is a refused snapshot
-            raise SnapshotError(f"the snapshot's {type(model).__name__} does not answer: {type(err).__name__}: {err}") from None
+            raise SnapshotError(f"the snapshot's {type(model).__name__} does not answer: "
+                                f"{type(err).__name__}: {err}") from None
         if not sane:
             raise SnapshotError(f"the snapshot's {type(model).__name__} answers with non-finite numbers")
         return model

@@ -7,7 +7,7 @@ Each check takes `make(seed=0) -> Learner`, a factory of fresh learners with 3 i
 from __future__ import annotations
 
 import pickle
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -175,10 +175,10 @@ def check_bad_input_rejected(make: Factory) -> None:
     bad_xs = [np.zeros(N_IN - 1), np.zeros(N_IN + 1), np.array([0.0, np.nan, 0.0]), np.array([np.inf, 0, 0])]
     bad_ys = [np.zeros(N_OUT + 1), np.array([0.0, np.nan]), np.array([-np.inf, 0.0])]
     for bad in bad_xs:
-        assert_rejected(lambda: model.learn_one(bad, good_y))
-        assert_rejected(lambda: model.predict_one(bad))
+        assert_rejected(lambda bad=bad: model.learn_one(bad, good_y))
+        assert_rejected(lambda bad=bad: model.predict_one(bad))
     for bad in bad_ys:
-        assert_rejected(lambda: model.learn_one(good_x, bad))
+        assert_rejected(lambda bad=bad: model.learn_one(good_x, bad))
     xs, ys = smooth_task(10)
     xs[7, 1] = np.nan
     assert_rejected(lambda: model.learn_many(xs, ys))
@@ -189,7 +189,8 @@ def check_bad_input_rejected(make: Factory) -> None:
 
 def check_error_messages(make: Factory) -> None:
     model = make()
-    assert_rejected(lambda: model.learn_one(np.zeros(N_IN - 1), np.zeros(N_OUT)), f"expected {N_IN} inputs, got {N_IN - 1}")
+    assert_rejected(lambda: model.learn_one(np.zeros(N_IN - 1), np.zeros(N_OUT)),
+                    f"expected {N_IN} inputs, got {N_IN - 1}")
     assert_rejected(lambda: model.learn_one(np.array([0.0, 0.0, np.nan]), np.zeros(N_OUT)), "input 2 is nan")
 
 
@@ -215,7 +216,9 @@ def check_sane_on_robot_streams(make: Factory) -> None:
         far = np.tile(xs.mean(0), (40, 1))
         rng = np.random.default_rng(task.seed)
         for i in task.relevant:
-            far[:, i] = task.motions[i].centre + task.motions[i].amplitude * rng.choice([-1, 1], 40) * rng.uniform(4, 10, 40)
+            far[:, i] = task.motions[i].centre + task.motions[i].amplitude * rng.choice([-1, 1], 40) * rng.uniform(4,
+                                                                                                                   10,
+                                                                                                                   40)
         p = model.predict_many(far)
         held = TaughtRange(N_OUT)
         held.learn(ys[:450])

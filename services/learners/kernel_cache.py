@@ -11,7 +11,7 @@ import hashlib
 from pathlib import Path
 
 _HERE = Path(__file__).resolve().parent
-_SOURCES = ("lwpr_layout.py", "lwpr_receptive_field.py", "lwpr_metric.py", "lwpr_kernels.py")
+_SOURCES = tuple(sorted(path.name for path in _HERE.glob("lwpr_*.py")))  # every kernel file, a new one too
 _STAMP = "lwpr_kernels.sources-sha256"
 
 

@@ -19,8 +19,9 @@ from .lwpr_layout import (
     FAST_MATH,
     BETA, BETA0, CENTRE, HP_DIAG_ONLY, HP_EXACT_FIT, LAMBDA, HP_INIT_REG, HP_MAX_RFS, HP_UPDATE_D, HP_W_CUTOFF,
     HP_NOVELTY_SCALE, HP_W_GEN, HP_W_PRUNE, MEAN_X, N_DATA, P_LOAD, SS_S2, SUM_E_CV2, SUM_W, U_DIR,
-    beyond_experience, init_rf, mat, rls_inverse, rls_theta, squared_distance, trace_d, vec,
+    mat, rls_inverse, rls_theta, vec,
 )
+from .lwpr_placement import beyond_experience, init_rf, squared_distance, trace_d
 from .lwpr_metric import update_metric
 from .lwpr_receptive_field import (
     anneal_lambdas, cross_validated_errors, maybe_add_projection, update_exact_fit,

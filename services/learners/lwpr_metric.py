@@ -19,7 +19,6 @@ from .lwpr_layout import (
     mat, vec,
 )
 
-
 E10, E_MINUS10 = math.exp(10.0), math.exp(-10.0)  # bounds of the meta rates, as exp(+-10)
 
 
@@ -81,9 +80,9 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
     max_m = 0.0
     for r in range(n):  # (M dx)_r, with M upper triangular
         acc = 0.0
-        for l in range(r, r + 1 if diag_only else n):
-            acc += m[r * n + l] * (x[l] - c[l])
-            max_m = max(max_m, abs(m[r * n + l]))
+        for col in range(r, r + 1 if diag_only else n):
+            acc += m[r * n + col] * (x[col] - c[col])
+            max_m = max(max_m, abs(m[r * n + col]))
         mdx[r] = acc
     dwdq, d2wdq2 = -0.5 * w, 0.25 * w  # Gaussian kernel w = exp(-q/2)
     for r in range(n):
@@ -91,18 +90,18 @@ def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
         row_m2 = 0.0
         for k in range(r, end):
             row_m2 += m[r * n + k] * m[r * n + k]
-        for l in range(r, end):
-            i = r * n + l
-            dxl = x[l] - c[l]
+        for col in range(r, end):
+            i = r * n + col
+            dxl = x[col] - c[col]
             md = 0.0  # (M D)_rl
             for k in range(r, end):
-                md += m[r * n + k] * d[k * n + l]
+                md += m[r * n + k] * d[k * n + col]
             dqdm = 2.0 * mdx[r] * dxl
             dwdm = dwdq * dqdm
             djdm = dwdm * dj1dw + w_over_big_w * 4.0 * penalty * md
             if meta:
                 d2wdm2 = d2wdq2 * dqdm * dqdm + dwdq * 2.0 * dxl * dxl
-                d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[l * n + l])
+                d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[col * n + col])
                 d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w_over_big_w * d2j2
                 meta_step(i, b, alpha, hm, djdm, d2jdm2, transient, hp[HP_META_RATE])
             delta = alpha[i] * djdm * transient

@@ -10,7 +10,7 @@ The envelope keeps the mean and covariance of everything learned. `beyond_span` 
 query lies beyond mean +- EXPERIENCED_SDS sd along each principal direction of that covariance (an
 input that never varied, or two that never parted, span nothing along theirs); `beyond_inputs` the
 same along chosen inputs' own axes. A query's confidence is multiplied by exp(-d^2 / (2 scale^2)).
-LWPR does the axis-aligned form per receptive field (lwpr_layout.beyond_experience).
+LWPR does the axis-aligned form per receptive field (lwpr_placement.beyond_experience).
 """
 from __future__ import annotations
 

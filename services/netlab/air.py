@@ -32,7 +32,7 @@ class Impairment:
         self.loss, self.jitter_s, self.delay_s, self.cut = loss, jitter_ms / 1e3, delay_ms / 1e3, cut
 
     @classmethod
-    def parse(cls, text: str) -> "Impairment":
+    def parse(cls, text: str) -> Impairment:
         words = text.split()
         if words == ["cut"]:
             return cls(cut=True)
@@ -100,7 +100,8 @@ def main(argv=None) -> int:
     parser.add_argument("--loss", type=float, default=0.0, help="share of frames dropped, each direction")
     parser.add_argument("--jitter-ms", type=float, default=0.0, help="each frame waits uniform 0..this long")
     parser.add_argument("--delay-ms", type=float, default=0.0, help="and this long besides")
-    parser.add_argument("--control", default=None, help="a file of `loss jitter_ms delay_ms` or `cut`, re-read on change")
+    parser.add_argument("--control", default=None,
+                        help="a file of `loss jitter_ms delay_ms` or `cut`, re-read on change")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     relay(args.a, args.b, Impairment(args.loss, args.jitter_ms, args.delay_ms), args.control, args.seed)

@@ -134,7 +134,7 @@ class Lab:
         return f"p{self.hosts.index(host)}"
 
     # --- building and tearing down -----------------------------------------------------------
-    def __enter__(self) -> "Lab":
+    def __enter__(self) -> Lab:
         sweep_stale_labs()
         try:
             self._build()

@@ -34,7 +34,8 @@ def _assert_input(platform, x, what: str) -> None:
     assert isinstance(x, np.ndarray), f"{what} returned {type(x).__name__}; return a numpy array"
     assert x.dtype == np.float64, f"{what} returned dtype {x.dtype}; return float64"
     assert x.shape == (box.dims,), f"{what} returned shape {x.shape}; spaces.input declares {box.dims} inputs"
-    outside = [n for n, v, lo, hi in zip(box.names or range(box.dims), x, box.low, box.high) if not lo - 1e-9 <= v <= hi + 1e-9]
+    outside = [n for n, v, lo, hi in zip(box.names or range(box.dims), x, box.low,
+                                         box.high) if not lo - 1e-9 <= v <= hi + 1e-9]
     assert not outside, f"{what} returned inputs outside spaces.input: {outside}; clip them or widen the bounds"
 
 
@@ -44,14 +45,18 @@ def check_spaces_declared_as_data(platform_factory: Callable) -> None:
         assert not missing, f"{type(platform).__name__} lacks {', '.join(missing)} of the Platform contract " \
                             "(services/platforms/base.py)"
         spaces = platform.spaces
-        assert isinstance(spaces, Spaces), f"platform.spaces is {type(spaces).__name__}; declare a bus_schema.spaces.Spaces"
+        assert isinstance(spaces,
+                          Spaces), f"platform.spaces is {type(spaces).__name__}; declare a bus_schema.spaces.Spaces"
         for side in ("input", "output"):
             box = getattr(spaces, side)
             assert isinstance(box, Box), f"spaces.{side} is {type(box).__name__}; declare a Box"
-            assert np.all(np.isfinite(box.low)) and np.all(np.isfinite(box.high)), f"spaces.{side} has infinite bounds; give finite ones"
-            assert len(box.names) == box.dims, f"spaces.{side} names {len(box.names)} of {box.dims} dimensions; name every one"
+            assert np.all(np.isfinite(box.low)) and np.all(np.isfinite(box.high)), \
+                f"spaces.{side} has infinite bounds; give finite ones"
+            assert len(box.names) == box.dims, \
+                f"spaces.{side} names {len(box.names)} of {box.dims} dimensions; name every one"
             assert len(set(box.names)) == box.dims, f"spaces.{side} has repeated names; make them unique"
-        assert Spaces.from_dict(spaces.to_dict()) == spaces, "spaces do not survive to_dict/from_dict; keep extra JSON-like"
+        assert Spaces.from_dict(spaces.to_dict()) == spaces, \
+            "spaces do not survive to_dict/from_dict; keep extra JSON-like"
 
 
 def check_reset_returns_input(platform_factory: Callable) -> None:
@@ -70,7 +75,8 @@ def check_step_clips_command(platform_factory: Callable) -> None:
             for command in _random_commands(box, 3, rng, spread):
                 applied = platform.step(command.copy(), DT)
                 assert isinstance(applied, np.ndarray) and applied.shape == (box.dims,), (
-                    f"step() returned {type(applied).__name__} {getattr(applied, 'shape', '')}; return the applied command, shape ({box.dims},)")
+                    f"step() returned {type(applied).__name__} {getattr(applied, 'shape', '')}; "
+                    f"return the applied command, shape ({box.dims},)")
                 assert np.allclose(applied, box.clip(command)), (
                     f"step() reported {np.round(applied, 4).tolist()} for command {np.round(command, 4).tolist()}; "
                     "report the command clipped to spaces.output, as applied")

@@ -15,7 +15,9 @@ import zenoh
 
 from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError,
                         TeachSwitch, decode, encode, supervisor_key, supervisor_token)
-from services.bus import DEFAULT_ROUTER, ask_owner, lossless_publisher, wait_matching, zenoh_config
+from services.bus.config import DEFAULT_ROUTER, zenoh_config
+from services.bus.publishers import lossless_publisher, wait_matching
+from services.bus.queries import ask_owner
 from services.supervisor.profile import ProfileError, load_profile
 
 
@@ -225,7 +227,8 @@ def watch(args) -> int:
                         print(f"{time.strftime('%H:%M:%S')}  tick {command.tick:>8}  {EARS[shown]}  "
                               f"({command.source}, confidence {command.confidence:.2f}){bell}", flush=True)
                 if now - last_seen > 2.0 and not quiet_said:
-                    print(f"{time.strftime('%H:%M:%S')}  no commands for 2 s: is the loop running? (dogged ps)", flush=True)
+                    print(f"{time.strftime('%H:%M:%S')}  no commands for 2 s: is the loop running? (dogged ps)",
+                          flush=True)
                     quiet_said = 1
                 time.sleep(0.05)
         except KeyboardInterrupt:
@@ -244,8 +247,10 @@ def parse_balls(items: list[str] | None) -> dict:
             balls[name] = None if where == "off" else [float(v) for v in where.split(",")]
         except ValueError:
             balls[name] = []
-        if not name or (balls[name] is not None and (len(balls[name]) != 2 or not all(map(math.isfinite, balls[name])))):
-            raise ValueError(f"--ball {item!r}: expected NAME=X,Y (metres, the robot starts at 0,0 facing +x) or NAME=off")
+        if not name or (balls[name] is not None and (len(balls[name]) != 2 or not all(map(math.isfinite,
+                                                                                          balls[name])))):
+            raise ValueError(f"--ball {item!r}: expected NAME=X,Y (metres, the robot starts at 0,0 facing +x) "
+                             "or NAME=off")
     return balls
 
 
@@ -269,7 +274,8 @@ def arena(args) -> int:
         end = time.monotonic() + 10
         while time.monotonic() < end:
             if states and _balls_are_where_asked(decode(RobotState, states[-1], keys.state).balls, balls):
-                print(f"arena {args.seed}: " + (", ".join(f"{n} {'off' if xy is None else xy}" for n, xy in balls.items())
+                print(f"arena {args.seed}: " + (", ".join(f"{n} {'off' if xy is None else xy}" for n,
+                                                          xy in balls.items())
                                                  or "balls as seeded"))
                 return 0
             time.sleep(0.1)
@@ -283,6 +289,7 @@ def _balls_are_where_asked(now: dict, asked: dict) -> bool:
         if name not in now:
             return False
         distance = float(np.hypot(*(np.asarray(now[name][:2]) - (xy or [0.0, 0.0]))))
-        if (xy is None and distance < 30.0) or (xy is not None and distance > 0.05):  # hidden balls are parked 40+ m out
+        # hidden balls are parked 40+ m out
+        if (xy is None and distance < 30.0) or (xy is not None and distance > 0.05):
             return False
     return True

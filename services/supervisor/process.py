@@ -10,7 +10,7 @@ import time
 from collections import deque
 from pathlib import Path
 
-from services.bus import DUMP_STACKS
+from services.bus.lifecycle import DUMP_STACKS
 from services.supervisor.profile import ServiceSpec
 
 
@@ -94,7 +94,7 @@ class ManagedProcess:
             try:
                 self.proc.wait(timeout)
             except subprocess.TimeoutExpired:
-                self._line("--- did not stop within %.0f s: its stacks follow in the log, then SIGKILL" % timeout)
+                self._line(f"--- did not stop within {timeout:.0f} s: its stacks follow in the log, then SIGKILL")
                 dump_stacks_then_kill(self.proc)
         self.state = "stopped"
 

@@ -154,7 +154,8 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     security = _get(zenoh_table, "security", str, "zenoh", "") or None
     also_listen = _get(zenoh_table, "also_listen", list, "zenoh", [])
     if not all(isinstance(e, str) and "/" in e for e in also_listen):
-        raise ProfileError(f"zenoh.also_listen: expected a list of endpoints like quic/10.0.0.1:7447, got {also_listen!r}")
+        raise ProfileError("zenoh.also_listen: expected a list of endpoints like quic/10.0.0.1:7447, "
+                           f"got {also_listen!r}")
     profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None,
                       Path(state_dir) if state_dir else None, upstream=join, also_listen=tuple(also_listen))
     if check_security:

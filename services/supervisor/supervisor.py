@@ -20,7 +20,10 @@ import zenoh
 
 from bus_schema import (EVERY_ALIVE, EVERY_STATUS, ControlReply, InstanceKeys, Status, check_name, decode, encode,
                         router_token, supervisor_key, supervisor_token)
-from services.bus import HOST, Inbox, StopFlag, zenoh_config
+from services.bus.config import zenoh_config
+from services.bus.inbox import Inbox
+from services.bus.lifecycle import StopFlag
+from services.bus.publishers import HOST
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, encode
-from services.bus import lossless_publisher, wait_matching
+from services.bus.publishers import lossless_publisher, wait_matching
 
 log = logging.getLogger("dogged.supervisor")
 

@@ -37,7 +37,8 @@ class BallSeekTeacher:
             raise ValueError(f"BallSeekTeacher outputs (forward, turn), but the output space has {spaces.output.dims} "
                              "dims; use AiboPlatform(command='move')")
         self.spaces, self.colour = spaces, colour
-        self.forward_speed, self.turn_gain, self.search_turn, self.centred = forward_speed, turn_gain, search_turn, centred
+        self.forward_speed, self.turn_gain = forward_speed, turn_gain
+        self.search_turn, self.centred = search_turn, centred
         self._seen, self._x = names.index(wanted[0]), names.index(wanted[1])
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:

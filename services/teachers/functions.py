@@ -33,7 +33,8 @@ class CopyTeacher:
         self.maps = [(float(p[2]), float(p[3])) if len(p) == 4 else (1.0, 0.0) for p in pairs]
         for i, o in self.pairs:
             if not (0 <= i < spaces.input.dims and 0 <= o < spaces.output.dims):
-                raise ValueError(f"pair ({i}, {o}) is outside {spaces.input.dims} inputs / {spaces.output.dims} outputs")
+                raise ValueError(f"pair ({i}, {o}) is outside {spaces.input.dims} inputs / "
+                                 f"{spaces.output.dims} outputs")
         self.mask = None
         if partial:
             self.mask = np.zeros(spaces.output.dims)

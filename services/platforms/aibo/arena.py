@@ -39,19 +39,23 @@ class Arena:
     def _build_floor_and_walls(self) -> None:
         c = self._client
         plane = c.createCollisionShape(c.GEOM_PLANE)
-        visual = c.createVisualShape(c.GEOM_BOX, halfExtents=[HALF_SIZE + 0.5, HALF_SIZE + 0.5, 0.001], rgbaColor=FLOOR_COLOUR)
+        visual = c.createVisualShape(c.GEOM_BOX, halfExtents=[HALF_SIZE + 0.5, HALF_SIZE + 0.5, 0.001],
+                                     rgbaColor=FLOOR_COLOUR)
         self.floor = c.createMultiBody(0, plane, visual, [0, 0, 0])
         c.changeDynamics(self.floor, -1, lateralFriction=1.0)
         # the visual box's top sits 1 mm above the collision plane: hidden feet would look odd
         c.resetBasePositionAndOrientation(self.floor, [0, 0, -0.001], [0, 0, 0, 1])
         reach = HALF_SIZE + WALL_THICKNESS / 2
         for sign in (-1, 1):
-            self._static_box([WALL_THICKNESS / 2, reach, WALL_HEIGHT / 2], [sign * reach, 0, WALL_HEIGHT / 2], WALL_COLOUR)
-            self._static_box([reach, WALL_THICKNESS / 2, WALL_HEIGHT / 2], [0, sign * reach, WALL_HEIGHT / 2], WALL_COLOUR)
+            self._static_box([WALL_THICKNESS / 2, reach, WALL_HEIGHT / 2], [sign * reach, 0, WALL_HEIGHT / 2],
+                             WALL_COLOUR)
+            self._static_box([reach, WALL_THICKNESS / 2, WALL_HEIGHT / 2], [0, sign * reach, WALL_HEIGHT / 2],
+                             WALL_COLOUR)
 
     def _place_clutter(self, box) -> int:
         body = self._static_box(list(box.half), list(box.centre), box.rgba)
-        self._client.resetBasePositionAndOrientation(body, list(box.centre), self._client.getQuaternionFromEuler([0, 0, box.yaw]))
+        self._client.resetBasePositionAndOrientation(body, list(box.centre), self._client.getQuaternionFromEuler([0, 0,
+                                                                                                                  box.yaw]))
         return body
 
     def _make_ball(self, rgba) -> int:
@@ -77,4 +81,5 @@ class Arena:
         self.place_ball(name, (HIDDEN_AT[0] + offset, HIDDEN_AT[1]))
 
     def ball_positions(self) -> dict[str, np.ndarray]:
-        return {name: np.array(self._client.getBasePositionAndOrientation(body)[0]) for name, body in self.balls.items()}
+        return {name: np.array(self._client.getBasePositionAndOrientation(body)[0]) for name,
+                body in self.balls.items()}

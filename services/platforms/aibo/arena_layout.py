@@ -11,7 +11,8 @@ import numpy as np
 HALF_SIZE = 1.5  # metres from the centre to each wall
 BALL_RADIUS = 0.04
 BALL_NAMES = ("pink", "orange")
-CLUTTER_COLOURS = ((0.2, 0.3, 0.75, 1), (0.2, 0.55, 0.3, 1), (0.35, 0.35, 0.38, 1), (0.1, 0.45, 0.5, 1), (0.9, 0.9, 0.9, 1))
+CLUTTER_COLOURS = ((0.2, 0.3, 0.75, 1), (0.2, 0.55, 0.3, 1), (0.35, 0.35, 0.38, 1), (0.1, 0.45, 0.5, 1), (0.9, 0.9, 0.9,
+                                                                                                          1))
 CLUTTER_COUNT = 7
 KEEP_CLEAR = 0.5  # no clutter or ball this close to where the robot starts (the origin)
 EYE_HEIGHT = 0.176  # the standing robot's nose camera above the floor (m)
@@ -53,7 +54,8 @@ def arena_layout(seed: int) -> Layout:
         x, y = _free_spot(rng, occupied, margin=footprint)
         occupied.append((np.array([x, y]), footprint))
         rgba = CLUTTER_COLOURS[int(rng.integers(len(CLUTTER_COLOURS)))]
-        clutter.append(Clutter((x, y, float(half[2])), tuple(float(h) for h in half), float(rng.uniform(0, np.pi)), rgba))
+        clutter.append(Clutter((x, y, float(half[2])), tuple(float(h) for h in half), float(rng.uniform(0, np.pi)),
+                               rgba))
     balls = {}
     for name in BALL_NAMES:
         balls[name] = _free_spot(rng, occupied, margin=0.1)

@@ -31,7 +31,8 @@ class NoseCamera:
         return list(pybullet.computeViewMatrix(eye.tolist(), (eye + rotation[:, 0]).tolist(), rotation[:, 2].tolist()))
 
     def projection_matrix(self) -> list[float]:
-        return list(pybullet.computeProjectionMatrixFOV(self.vertical_fov_deg, self.width / self.height, self.near, self.far))
+        return list(pybullet.computeProjectionMatrixFOV(self.vertical_fov_deg, self.width / self.height, self.near,
+                                                        self.far))
 
     def render(self, client, position, orientation) -> np.ndarray:
         """RGB uint8 image, shape (height, width, 3), row 0 at the top."""
@@ -43,7 +44,8 @@ class NoseCamera:
         return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[:, :, :3].copy()
 
 
-def project(view: list[float], projection: list[float], point, width: int = WIDTH, height: int = HEIGHT) -> np.ndarray | None:
+def project(view: list[float], projection: list[float], point, width: int = WIDTH,
+            height: int = HEIGHT) -> np.ndarray | None:
     """Pixel (x right, y down; pixel centres at .5) where a world point lands, or None if behind the camera."""
     view_m = np.asarray(view, dtype=np.float64).reshape(4, 4).T  # pybullet matrices are column-major
     proj_m = np.asarray(projection, dtype=np.float64).reshape(4, 4).T

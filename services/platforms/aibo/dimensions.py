@@ -32,4 +32,5 @@ def leg_side(leg: str) -> tuple[int, int]:
 
 def total_mass() -> float:
     per_leg = MASS["shoulder"] + MASS["thigh"] + MASS["shin"]
-    return 4 * per_leg + sum(MASS[k] for k in ("body", "neck", "head", "jaw", "nose", "tail_base", "tail")) + 2 * MASS["ear"]
+    return 4 * per_leg + sum(MASS[k] for k in ("body", "neck", "head", "jaw", "nose", "tail_base",
+                                               "tail")) + 2 * MASS["ear"]

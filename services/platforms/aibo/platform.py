@@ -18,7 +18,8 @@ from services.platforms.aibo.sim import PHYSICS_HZ, AiboSim
 
 COMMAND_MODES = ("joints", "move")
 # plain floats, not numpy scalars: spaces travel as data (msgpack, JSON)
-JOINTS_BOX = Box(tuple(map(float, JOINT_LIMITS[:, 0])), tuple(map(float, JOINT_LIMITS[:, 1])), JOINT_NAMES, ("rad",) * len(JOINT_NAMES))
+JOINTS_BOX = Box(tuple(map(float, JOINT_LIMITS[:, 0])), tuple(map(float, JOINT_LIMITS[:, 1])), JOINT_NAMES,
+                 ("rad",) * len(JOINT_NAMES))
 MOVE_BOX = Box(tuple(map(float, MOVE_LIMITS[:, 0])), tuple(map(float, MOVE_LIMITS[:, 1])), MOVE_NAMES, MOVE_UNITS)
 
 
@@ -30,7 +31,8 @@ class AiboPlatform:
         self.seed, self.command, self.camera, self.gui, self.physics_hz = seed, command, camera, gui, physics_hz
         extra = {"platform": "aibo", "command": command, "physics_hz": physics_hz}
         if camera:
-            extra["camera"] = {"width": WIDTH, "height": HEIGHT, "vertical_fov_deg": VERTICAL_FOV_DEG, "encoding": "jpeg"}
+            extra["camera"] = {"width": WIDTH, "height": HEIGHT, "vertical_fov_deg": VERTICAL_FOV_DEG,
+                               "encoding": "jpeg"}
         self.spaces = Spaces(input=JOINTS_BOX, output=JOINTS_BOX if command == "joints" else MOVE_BOX, extra=extra)
         self.sim = AiboSim(seed=seed, gui=gui, physics_hz=physics_hz)
         self._holding = False
@@ -50,8 +52,8 @@ class AiboPlatform:
     def step(self, command: np.ndarray, dt: float) -> np.ndarray:
         command = np.asarray(command, dtype=np.float64)
         if command.shape != (self.spaces.output.dims,):
-            raise ValueError(f"expected {self.spaces.output.dims} command values for the aibo in {self.command!r} mode, "
-                             f"got shape {command.shape}; see platform.spaces.output.names")
+            raise ValueError(f"expected {self.spaces.output.dims} command values for the aibo in {self.command!r} "
+                             f"mode, got shape {command.shape}; see platform.spaces.output.names")
         command = self.spaces.output.clip(command)
         if self.command == "joints":
             applied = self.sim.set_joint_targets(command)
@@ -72,7 +74,7 @@ class AiboPlatform:
     def close(self) -> None:
         self.sim.close()
 
-    def __enter__(self) -> "AiboPlatform":
+    def __enter__(self) -> AiboPlatform:
         return self
 
     def __exit__(self, *exc) -> None:

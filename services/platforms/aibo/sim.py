@@ -60,7 +60,8 @@ class AiboSim:
         if gui and os.environ.get("DISPLAY"):
             return pybullet.GUI
         if gui:
-            warnings.warn("AiboSim(gui=True) but DISPLAY is not set: running headless (DIRECT) instead", RuntimeWarning, stacklevel=3)
+            warnings.warn("AiboSim(gui=True) but DISPLAY is not set: running headless (DIRECT) instead", RuntimeWarning,
+                          stacklevel=3)
         return pybullet.DIRECT
 
     # ---- episode -------------------------------------------------------------------------------
@@ -71,7 +72,8 @@ class AiboSim:
         c = self._client
         c.resetSimulation()
         c.setGravity(0, 0, -9.81)
-        c.setPhysicsEngineParameter(fixedTimeStep=1.0 / self.physics_hz, numSolverIterations=50, deterministicOverlappingPairs=1)
+        c.setPhysicsEngineParameter(fixedTimeStep=1.0 / self.physics_hz, numSolverIterations=50,
+                                    deterministicOverlappingPairs=1)
         self.arena = Arena(c, self.seed)
         self.gait.reset()
         self._load_robot()
@@ -234,7 +236,7 @@ class AiboSim:
             self._closed = True
             self._client.disconnect()
 
-    def __enter__(self) -> "AiboSim":
+    def __enter__(self) -> AiboSim:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -4,11 +4,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: tests.harness, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import socket
-import sys
 import time
 
 import numpy as np
@@ -22,7 +21,7 @@ def echo(port: int, seconds: float) -> None:
         while time.monotonic() < end:
             try:
                 data, addr = s.recvfrom(2048)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             s.sendto(data, addr)
 

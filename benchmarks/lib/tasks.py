@@ -1,4 +1,4 @@
-"""The benchmark tasks, shared by tests and benchmarks/learners.py.
+"""The benchmark tasks, shared by tests and benchmarks/learners.py (data, not the library).
 
 `cross` is the 2-D function of the LWPR tutorial; `mirror` is the paper's first Aibo task
 (head copies tail; indices follow the project's joint order: 12 head_tilt, 13 head_pan,

@@ -1,0 +1,8 @@
+"""What every service shares about the bus, one room each:
+
+    config.py      flags into a zenoh.Config (the one place a session's settings are made)
+    lifecycle.py   stopping on signals or the supervisor's death, stack dumps, the log
+    inbox.py       what a service hears: the inbox its callbacks feed, rejects with their reasons
+    publishers.py  what it says: latest-only and lossless publishers, its status once a second
+    queries.py     what it asks: the one owner of a key
+"""
