@@ -12,6 +12,7 @@ from pathlib import Path
 import zenoh
 
 from bus_schema import EVERY_STATUS, Status, decode
+from services import waiting
 from services.bus.config import zenoh_config
 from services.bus.publishers import wait_matching
 from services.supervisor.process import dump_stacks_then_kill
@@ -21,13 +22,10 @@ REPO = Path(__file__).resolve().parents[1]
 
 def wait_until(condition, timeout: float, what: str = "condition", poll: float = 0.05):
     """condition()'s first truthy value within `timeout` seconds, else an AssertionError naming `what`."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(poll)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+    value = waiting.poll(condition, timeout, poll)
+    if value is None:
+        raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+    return value
 
 
 def free_port() -> int:

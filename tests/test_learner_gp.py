@@ -3,6 +3,7 @@ taught range, extends a map the evidence says is linear, stays finite on degener
 import numpy as np
 
 from services.learners import make_learner
+from services.waiting import poll
 from services.learners.unknown_tasks import draw_task
 
 UNIT = (-np.ones(8), np.ones(8), -np.ones(2), np.ones(2))
@@ -105,7 +106,6 @@ def test_an_input_that_only_jittered_while_taught_does_not_throw_the_answer_off_
 def test_served_live_a_fit_runs_aside_and_the_last_one_sees_all_the_teaching():
     """serve_live: fits on the fitter's thread; teaching during a fit is fitted next, so once the
     teaching stops and the fits land, the model is the one a synchronous learner would have."""
-    import time
     task = draw_task(5, *UNIT, relevant=(2, 2), taught=(1, 1))
     xs = task.stream(20.0, 30.0, "trajectory")
     ys = task.target(xs)
@@ -114,12 +114,10 @@ def test_served_live_a_fit_runs_aside_and_the_last_one_sees_all_the_teaching():
     for x, y in zip(xs, ys):
         live.learn_one(x, y)
         still.learn_one(x, y)
-    deadline = time.monotonic() + 60.0
-    while time.monotonic() < deadline:
+    def settled() -> bool:
         live.predict_one(xs[0])  # applies a finished fit, and starts the next if teaching went on
-        if live._pending is None:
-            break
-        time.sleep(0.05)
+        return live._pending is None
+    poll(settled, 60.0)
     assert live._pending is None and live._last_fit == live._y_count == len(xs)
     probe = task.stream(10.0, 30.0, "trajectory")[::7]
     gap = np.abs(live.predict_many(probe).y - still.predict_many(probe).y).max()

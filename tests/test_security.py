@@ -7,7 +7,7 @@ import pytest
 import zenoh
 
 from services.security import access_control, identity, make_certs
-from tests.harness import dogged, free_port, stop
+from tests.harness import dogged, free_port, stop, wait_until
 
 IDENTITIES = ["router.router", "platform.aibo", "arbitrator.arbitrator", "learner.learner", "teacher.alice",
               "operator.bob", "supervisor.main", "perception.perception"]
@@ -156,10 +156,7 @@ def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch
     with peer("platform.aibo") as robot, peer("arbitrator.arbitrator") as arbitrator, peer("teacher.alice") as alice:
         held = robot.declare_subscriber("dl/main/command", lambda s: got.append(s.payload.to_bytes()))
         others = {str(arbitrator.info.zid()), str(alice.info.zid())}
-        end = time.monotonic() + 10
-        while not others <= {str(z) for z in robot.info.peers_zid()} and time.monotonic() < end:
-            time.sleep(0.1)
-        assert others <= {str(z) for z in robot.info.peers_zid()}, "the peers did not link directly"
+        wait_until(lambda: others <= {str(z) for z in robot.info.peers_zid()}, 10, "the peers to link directly", 0.1)
         time.sleep(0.5)
         for _ in range(5):
             arbitrator.put("dl/main/command", b"arbitrator")

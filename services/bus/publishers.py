@@ -8,6 +8,7 @@ import time
 import zenoh
 
 from bus_schema import Status, encode
+from services.waiting import poll
 
 HOST = os.environ.get("DOGGED_HOST") or socket.gethostname()  # the machine a service's status says it runs on
 
@@ -58,9 +59,4 @@ def lossless_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
 
 def wait_matching(publisher: zenoh.Publisher, timeout: float, stop=None) -> bool:
     """A put right after declaring can be lost until a subscriber is matched: wait for one."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not stop:
-        if publisher.matching_status.matching:
-            return True
-        time.sleep(0.005)
-    return publisher.matching_status.matching
+    return bool(poll(lambda: publisher.matching_status.matching, timeout, 0.005, stop))

@@ -24,6 +24,7 @@ from services.perception.blobs import BlobDetector
 from services.perception.slots import BlobSlots
 from services.platforms.aibo.platform import MOVE_BOX
 from services.teachers.ballseek import ball_seek_teacher
+from services.waiting import poll
 from bus_schema.spaces import Spaces
 
 PROFILE = """
@@ -95,14 +96,18 @@ class LiveStage:
     def landed(self, balls: dict, since: int, timeout: float = 10.0) -> int:
         """Waits for the first state recorded from index `since` with every ball where it was put (the
         reset has landed); returns that state's index."""
-        recorded, end = self.run.recorded[self.run.robot.state], time.monotonic() + timeout
-        while time.monotonic() < end:
-            for i in range(since, len(recorded)):
+        recorded, seen = self.run.recorded[self.run.robot.state], [since]
+
+        def first_landed() -> int | None:
+            for i in range(seen[0], len(recorded)):
                 state = decoded(RobotState, *recorded[i][:2])
                 if state is not None and all(at_spot(state, name, spot) for name, spot in balls.items()):
-                    return i
-            since = len(recorded)
-            time.sleep(0.005)
+                    return i + 1  # (truthy: index + 1)
+            seen[0] = len(recorded)
+            return None
+        found = poll(first_landed, timeout, 0.005)
+        if found:
+            return found - 1
         raise TimeoutError(f"the robot's state did not show the arena reset with {balls} within {timeout:g} s")
 
     def reached(self, spot, target: str, first_state: int) -> bool:

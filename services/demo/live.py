@@ -17,6 +17,7 @@ from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, Robo
                         decode, encode)
 from services.bus.config import zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
+from services.waiting import poll
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -59,12 +60,10 @@ class BusRecorder:
     def teach(self, on: bool, teacher: str = "") -> None:
         wait_matching(self._teach, 5.0)
         self._teach.put(encode(TeachSwitch(teacher, on)))
-        want = f"{self.keys.prefix}/alive/teaching/{teacher or '*'}"
-        end = time.monotonic() + 10
-        while time.monotonic() < end:  # the switch is done when the teaching token says so
-            if any(r.ok is not None for r in self.session.liveliness().get(want, timeout=1)) == on:
-                return
-            time.sleep(0.02)
+        want = self.keys.teaching(teacher or "*")
+        # the switch is done when the teaching token says so
+        if poll(lambda: any(r.ok is not None for r in self.session.liveliness().get(want, timeout=1)) == on, 10, 0.02):
+            return
         raise TimeoutError(f"teacher {teacher or '(all)'} did not switch {'on' if on else 'off'}")
 
     def reset_arena(self, seed: int, balls: dict) -> None:
@@ -127,14 +126,13 @@ class LiveRun(BusRecorder):
         return {r["name"]: r for r in json.loads(out.stdout)["services"]} if out.returncode == 0 else {}
 
     def wait_ready(self, timeout: float = 180.0) -> None:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            rows = self.ps()
-            if rows and all(r["state"] == "ready" for r in rows.values()):
-                return
+        def ready() -> bool:
             if self.supervisor.poll() is not None:
                 raise RuntimeError(f"the supervisor exited; see {self.run_dir / 'supervisor.log'}")
-            time.sleep(0.5)
+            rows = self.ps()
+            return bool(rows) and all(r["state"] == "ready" for r in rows.values())
+        if poll(ready, timeout, 0.5):
+            return
         raise TimeoutError(f"services not ready after {timeout} s: {self.ps()}")
 
     def close(self) -> int:

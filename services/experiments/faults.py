@@ -25,6 +25,7 @@ from pathlib import Path
 
 from bus_schema import SchemaError, Status, TrainingPair, decode
 from services.demo.live import LiveRun
+from services.waiting import poll
 
 RATE = 30.0
 GAP = 0.25  # seconds without a command that count as commands having stopped (7.5 periods)
@@ -135,13 +136,11 @@ class BusRecord:
 
 def wait_restarted(run: LiveRun, service: str, timeout: float = 20.0) -> bool:
     """The service back (restarted, or continued after SIGSTOP) and every service ready."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
+    def back() -> bool:
         rows = run.ps()
-        if rows and all(r["state"] == "ready" for r in rows.values()) and rows.get(service, {}).get("pid"):
-            return True
-        time.sleep(0.25)
-    return False
+        ready = bool(rows) and all(r["state"] == "ready" for r in rows.values())
+        return ready and bool(rows.get(service, {}).get("pid"))
+    return bool(poll(back, timeout, 0.25))
 
 
 def pair_deficit(run: LiveRun, record: BusRecord) -> tuple[int, int]:
@@ -184,12 +183,7 @@ def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tup
 
 
 def children_gone(pids: list[int], timeout: float = 10.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if not any(_alive(pid) for pid in pids):
-            return True
-        time.sleep(0.2)
-    return False
+    return bool(poll(lambda: not any(_alive(pid) for pid in pids), timeout, 0.2))
 
 
 def _alive(pid: int) -> bool:

@@ -29,6 +29,7 @@ from services.demo.live import REPO, BusRecorder, decoded
 from services.demo.mirroring import param_args
 from services.experiments.wiring import wired_learner
 from services.netlab.lab import Lab
+from services.waiting import poll
 
 ROBOT, BRAIN = "robot", "brain"
 TEACHERS = {"alice": ("pan", "pan"), "bob": ("tilt", "tilt")}  # host -> (teacher service, axes)
@@ -188,18 +189,16 @@ class Hosts:
 
     def wait_ready(self, timeout: float = 180.0) -> None:
         """Every service of both profiles ready, and commands flowing to this observer."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            rows = self.ps(ROBOT)
-            names = {r["name"]: r for r in rows}
-            want = {"aibo", "handler", "learner", "arbitrator", "pan", "tilt"}
-            if want <= names.keys() and all(names[n]["state"] in ("ready", "remote") for n in want) \
-                    and self.commands_since(time.time() - 1.0):
-                return
+        def ready() -> bool:
             for host, proc in self.teachers.items():
                 if proc.poll() is not None:
                     raise RuntimeError(f"the teacher on {host} exited; see {self.run_dir / (host + '.log')}")
-            time.sleep(0.5)
+            names = {r["name"]: r for r in self.ps(ROBOT)}
+            want = {"aibo", "handler", "learner", "arbitrator", "pan", "tilt"}
+            return want <= names.keys() and all(names[n]["state"] in ("ready", "remote") for n in want) \
+                and bool(self.commands_since(time.time() - 1.0))
+        if poll(ready, timeout, 0.5):
+            return
         raise TimeoutError(f"not ready after {timeout} s: {self.ps(ROBOT)}")
 
     def ps(self, host: str, profile: str = "robot") -> list[dict]:

@@ -25,6 +25,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from services.waiting import poll
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -69,9 +70,7 @@ def end_namespaces(names) -> None:
                 os.kill(pid, sig)
             except ProcessLookupError:
                 pass
-        end = time.monotonic() + 5
-        while time.monotonic() < end and any(_alive(pid) for pid in pids):
-            time.sleep(0.05)
+        poll(lambda: not any(_alive(pid) for pid in pids), 5, 0.05)
     for name in names:
         subprocess.run(["ip", "netns", "del", name], capture_output=True)
 

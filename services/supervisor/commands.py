@@ -19,6 +19,7 @@ from services.bus.config import DEFAULT_ROUTER, zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
 from services.bus.queries import ask_owner
 from services.supervisor.profile import ProfileError, load_profile
+from services.waiting import poll
 
 
 def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False, join: str | None = None) -> int:
@@ -156,12 +157,11 @@ def down(args) -> int:
             return 1
         if problem:
             print(f"warning: {problem}", file=sys.stderr)
-        end = time.monotonic() + 30
-        while time.monotonic() < end:  # the supervisor's token goes when everything has stopped
-            if not any(r.ok is not None for r in session.liveliness().get(supervisor_token(profile), timeout=1)):
-                print(f"{profile}: stopped")
-                return 0
-            time.sleep(0.2)
+        # the supervisor's token goes when everything has stopped
+        if poll(lambda: not any(r.ok is not None for r in session.liveliness().get(supervisor_token(profile),
+                                                                                     timeout=1)), 30, 0.2):
+            print(f"{profile}: stopped")
+            return 0
     print(f"{profile}: still stopping after 30 s", file=sys.stderr)
     return 1
 
@@ -176,14 +176,15 @@ def teach(args) -> int:
             return 1
         pub.put(encode(TeachSwitch(args.teacher, on)))
         who = args.teacher or "every teacher"
-        end = time.monotonic() + 5
-        while time.monotonic() < end:  # confirmed when the teaching tokens say so
+        def confirmed():  # when the teaching tokens say so: who is teaching now
             teaching = {str(r.ok.key_expr).split("/")[-1]
-                        for r in session.liveliness().get(f"{keys.prefix}/alive/teaching/*", timeout=1) if r.ok}
-            if (args.teacher in teaching) == on if args.teacher else bool(teaching) == on:
-                print(f"{who}: teaching {'on' if on else 'off'} ({', '.join(sorted(teaching)) or 'none teaching'})")
-                return 0
-            time.sleep(0.1)
+                        for r in session.liveliness().get(keys.teaching("*"), timeout=1) if r.ok}
+            done = (args.teacher in teaching) == on if args.teacher else bool(teaching) == on
+            return done and (", ".join(sorted(teaching)) or "none teaching")
+        teaching = poll(confirmed, 5, 0.1)
+        if teaching:
+            print(f"{who}: teaching {'on' if on else 'off'} ({teaching})")
+            return 0
     print(f"{who} did not confirm teaching {'on' if on else 'off'}", file=sys.stderr)
     return 1
 
@@ -271,14 +272,11 @@ def arena(args) -> int:
             return 1
         held = session.declare_subscriber(keys.state, lambda sample: states.append(sample.payload.to_bytes()))
         pub.put(encode(ArenaReset(args.seed, balls)))
-        end = time.monotonic() + 10
-        while time.monotonic() < end:
-            if states and _balls_are_where_asked(decode(RobotState, states[-1], keys.state).balls, balls):
-                print(f"arena {args.seed}: " + (", ".join(f"{n} {'off' if xy is None else xy}" for n,
-                                                          xy in balls.items())
-                                                 or "balls as seeded"))
-                return 0
-            time.sleep(0.1)
+        if poll(lambda: states and _balls_are_where_asked(decode(RobotState, states[-1], keys.state).balls, balls),
+                10, 0.1):
+            said = ", ".join(f"{n} {'off' if xy is None else xy}" for n, xy in balls.items())
+            print(f"arena {args.seed}: {said or 'balls as seeded'}")
+            return 0
         del held
     print(f"the robot did not confirm the arena reset; see `dogged logs {args.robot}`", file=sys.stderr)
     return 1
