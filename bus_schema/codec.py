@@ -1,6 +1,7 @@
 """msgpack maps with a schema version; vectors travel as packed little-endian float64 bytes.
 
-Every message class lists FIELDS as (name, kind) pairs. `decode` checks the version, every
+Every message class lists FIELDS as (name, kind) pairs; a field added later names its default in
+DEFAULTS, so a message from an older sender (without it) still decodes. `decode` checks the version, every
 field's presence and type, vector lengths and finiteness, and the payload's size, and raises a
 SchemaError naming the key and the field.
 """
@@ -96,6 +97,9 @@ def decode(cls: type[T], raw: bytes, key: str, dims: dict[str, int] | None = Non
     values = {}
     for name, kind in cls.FIELDS:
         if name not in data:
+            if name in getattr(cls, "DEFAULTS", {}):
+                values[name] = cls.DEFAULTS[name]
+                continue
             raise SchemaError(key, name, "missing")
         value = data[name]
         if kind in (VECTOR, VECTORS) or (kind == OPT_VECTOR and value is not None):

@@ -35,13 +35,18 @@ class Input:
 @dataclass(frozen=True, slots=True)
 class Proposal:
     """A teacher's or learner's answer to one input; y is None when a teacher has nothing to say.
-    mask (0/1 per output, or None for all) marks the outputs a partial teacher speaks for."""
-    FIELDS = (("tick", INT), ("source", STR), ("y", OPT_VECTOR), ("confidence", FLOAT), ("mask", OPT_VECTOR))
+    mask (0/1 per output, or None for all) marks the outputs a partial teacher speaks for. learned: how
+    many training pairs a learner had learned when it answered (-1 from a teacher), so a recorded run's
+    predictions can be reproduced (`dogged replay`)."""
+    FIELDS = (("tick", INT), ("source", STR), ("y", OPT_VECTOR), ("confidence", FLOAT), ("mask", OPT_VECTOR),
+              ("learned", INT))
+    DEFAULTS = {"learned": -1}
     tick: int
     source: str
     y: np.ndarray | None
     confidence: float
     mask: np.ndarray | None = None
+    learned: int = -1
 
     def check(self, key: str) -> None:
         _check_confidence(key, self.confidence)

@@ -1,5 +1,5 @@
 """`dogged`: run a box, bring a profile up or down, list, read logs, swap a learner, switch teachers,
-watch the robot's mode, reset the robot's arena."""
+watch the robot's mode, reset the robot's arena, replay a recorded run or play it into a live bus."""
 from __future__ import annotations
 
 import argparse
@@ -26,6 +26,12 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["demo"]:
         from services.demo import cli as demo
         return demo(argv[1:])
+    if argv[:1] == ["replay"]:
+        from services.recording.cli import replay_main
+        return replay_main(argv[1:])
+    if argv[:1] == ["play"]:
+        from services.recording.cli import play_main
+        return play_main(argv[1:])
     args = verbs_parser().parse_args(argv)
     use_certificate(args)
     if args.verb == "up":
@@ -39,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def verbs_parser() -> argparse.ArgumentParser:
-    """`dogged <verb>`: the supervisor's verbs (`run` and `demo` parse their own arguments)."""
+    """`dogged <verb>`: the supervisor's verbs (`run`, `demo`, `replay` and `play` parse their own arguments)."""
     from services.bus.config import add_certificate_args
     parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
     parser.add_argument("--connect", default=None,
@@ -49,6 +55,8 @@ def verbs_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="verb", required=True)
     sub.add_parser("run", help="run one box: dogged run <box> --help")
     sub.add_parser("demo", help="the headline demo: ball seeking end to end (dogged demo --help)")
+    sub.add_parser("replay", help="retrain learners on a recorded run and compare them (dogged replay --help)")
+    sub.add_parser("play", help="publish a recorded run's inputs in place of the platform (dogged play --help)")
     up = sub.add_parser("up", help="start a router and every service of a profile; Ctrl-C stops all")
     up.add_argument("profile_file")
     up.add_argument("--router", default=None, help="override the profile's router endpoint")

@@ -16,10 +16,11 @@ lets each role say only its part, as the paper's Figure 1 draws it:
 | operator (a person), supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor |
 | supervisor | answer the supervisor's verbs |
 
-Everything else (subscribing, status, querying the owners) stays open to every identity. Services
-join as peers that link to each other directly over mutual TLS (a hop fewer than through the
-router), so every peer enforces the same access control on what reaches it, as the router does on
-what its clients send; what the router forwards has passed its check.
+The recorder owns nothing: it only listens and asks. Everything else (subscribing, status, querying
+the owners) stays open to every identity. Services join as peers that link to each other directly
+over mutual TLS (a hop fewer than through the router), so every peer enforces the same access
+control on what reaches it, as the router does on what its clients send; what the router forwards
+has passed its check.
 """
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ from pathlib import Path
 
 from bus_schema.keys import SUPERVISOR, InstanceKeys, RobotKeys
 
-ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "operator",
+ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "recorder", "operator",
          "supervisor", "router")
 _IDENTITY = re.compile(r"^([a-z]+)\.([a-z0-9][a-z0-9_-]{0,63})$")
 

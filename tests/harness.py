@@ -19,6 +19,20 @@ from services.supervisor.process import dump_stacks_then_kill
 
 REPO = Path(__file__).resolve().parents[1]
 
+# a profile's loop beside its platform: a sine teacher teaching from the start, an LWPR learner, the arbitrator
+LOOP_SERVICES = """
+[services.teacher]
+box = "demonstrator"
+args = ["--teacher", "sine", "--on"]
+
+[services.learner]
+box = "learner"
+args = ["--learner", "lwpr"]
+
+[services.arbitrator]
+box = "arbitrator"
+"""
+
 
 def wait_until(condition, timeout: float, what: str = "condition", poll: float = 0.05):
     """condition()'s first truthy value within `timeout` seconds, else an AssertionError naming `what`."""

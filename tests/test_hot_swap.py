@@ -2,7 +2,7 @@
 import json
 import time
 
-from tests.harness import Probe, dogged, dogged_ok, free_port
+from tests.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port
 from tests.test_supervisor import ps, wait
 
 TICKS = 6000  # 30 s at 200 Hz
@@ -16,18 +16,7 @@ log_dir = "{logs}"
 box = "platform"
 args = ["--platform", "point", "--param", "dims=2", "--rate", "200", "--max-ticks", "{ticks}", "--summary", "{summary}"]
 restart = "never"
-
-[services.teacher]
-box = "demonstrator"
-args = ["--teacher", "sine", "--on"]
-
-[services.learner]
-box = "learner"
-args = ["--learner", "lwpr"]
-
-[services.arbitrator]
-box = "arbitrator"
-"""
+""" + LOOP_SERVICES
 
 
 def test_swap_learners_during_200hz_run(tmp_path):
@@ -54,7 +43,7 @@ def test_swap_learners_during_200hz_run(tmp_path):
         again = dogged_ok("swap", "learner", "knn:k=3", endpoint=endpoint, timeout=120)
         assert again.returncode == 0, again.stdout + again.stderr
         assert "restored from the old one's snapshot" in again.stdout, again.stdout
-        assert set(ps(endpoint)) == {"router", "platform", "teacher", "learner-s3", "arbitrator"}
+        assert set(ps(endpoint)) == {"router", "recorder", "platform", "teacher", "learner-s3", "arbitrator"}
         wait(lambda: summary.exists(), 60, "the platform to finish its ticks")
         time.sleep(2.5)  # two status periods: the final counters are out
         counts = json.loads(summary.read_text())

@@ -56,7 +56,7 @@ def test_compiling_before_going_live_leaves_the_learner_as_it_was(name):
     (the old warm_up, used by nothing, was tested only for elapsed >= 0)."""
     import numpy as np
 
-    from services.boxes.learner import compile_kernels
+    from services.learners import compile_kernels
     model = make_learner(name, 3, 2, seed=1)
     before = model.snapshot()
     compile_kernels(model)

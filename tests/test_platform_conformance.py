@@ -1,7 +1,12 @@
 """Every registered platform passes every conformance check; the checker catches broken platforms."""
 from __future__ import annotations
 
+import atexit
 import functools
+import json
+import shutil
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,11 +16,27 @@ from services.platforms import PLATFORMS, make_platform
 from services.platforms.checks import ALL_CHECKS, check_step_clips_command, check_watchdog_holds_still
 from services.platforms.point import PointPlatform
 
+
+def a_recorded_run() -> str:
+    """A short recording of the point platform (inputs and spaces), for the recorded platform."""
+    from bus_schema import Input, encode
+    from services.recording.writer import RunWriter
+    point, folder = PointPlatform(dims=2, seed=0), Path(tempfile.mkdtemp(prefix="dogged-recorded-"))
+    atexit.register(shutil.rmtree, folder, True)
+    writer = RunWriter(folder, "recorder", 10**9, 3600.0)
+    writer.add_metadata("spaces dl/main", {"spaces": json.dumps(point.spaces.to_dict())})
+    for tick in range(1, 201):
+        writer.write("dl/main/input", Input, encode(Input(tick, tick / 30, point.observe())), tick, tick)
+        point.step(np.full(2, 0.5), 1 / 30)
+    writer.close()
+    return str(folder)
+
 # every registered platform, plus the Aibo's second command mode; cameras off: the checks are
 # about the contract, not the frames
 VARIANTS = {name: (name, {}) for name in PLATFORMS}
 VARIANTS["aibo"] = ("aibo", {"camera": False})
 VARIANTS["aibo-move"] = ("aibo", {"camera": False, "command": "move"})
+VARIANTS["recorded"] = ("recorded", {"run": a_recorded_run()})
 
 
 CASES = [(variant, check) for variant in sorted(VARIANTS) for check in ALL_CHECKS]

@@ -28,6 +28,9 @@ def test_shipped_profiles_are_valid():
     ("[services.a\n", "not valid TOML"),
     ("[services.a]\nbox = 'learner'\nafter = ['b']", "services.a.after: 'b' is not another service"),
     ("[services.a]\nbox='learner'\nafter=['b']\n[services.b]\nbox='learner'\nafter=['a']", "cycle"),
+    ("[profile]\nrecord = 'yes'\n[services.a]\nbox = 'learner'", "profile.record: expected bool"),
+    ("[profile]\nrecord_rotate_mb = 0\n[services.a]\nbox = 'learner'", "record_rotate_mb and record_rotate_min must"),
+    ("[services.recorder]\nbox = 'learner'", "services.recorder: the name of the profile's recorder"),
 ])
 def test_errors_name_the_field(tmp_path, text, message):
     with pytest.raises(ProfileError, match=message.replace("(", r"\(").replace("[", r"\[")):
@@ -36,7 +39,7 @@ def test_errors_name_the_field(tmp_path, text, message):
 
 def test_demonstrator_role_from_args(tmp_path):
     p = load_profile(write(tmp_path, "[services.d]\nbox='demonstrator'\nargs=['--role','default','--teacher','hold']"))
-    assert p.services[0].role == "default"
+    assert {s.name: s for s in p.services}["d"].role == "default"
 
 
 LEARNERS = ("[services.l]\nbox='learner'\n[services.k]\nbox='learner'\nargs=['--state-dir','own']\n"

@@ -51,7 +51,7 @@ def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
 
         ready = wait_until(lambda: (r := rows()) and all(x["state"] == "ready" for x in r.values()) and r, 90,
                            "every service ready over TLS")
-        assert set(ready) == {"router", "platform", "teacher", "learner", "arbitrator"}
+        assert set(ready) == {"router", "recorder", "platform", "teacher", "learner", "arbitrator"}
         learning = wait_until(lambda: rows().get("learner", {}).get("rates", {}).get("learned", 0) > 50, 30,
                               "the learner learning over TLS")
         assert learning

@@ -58,7 +58,7 @@ def test_up_ps_sigkill_restart_down(tmp_path):
     try:
         rows = wait(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()) and r,
                     90, "every service ready")
-        assert set(rows) == {"router", "platform", "teacher", "learner", "arbitrator"}
+        assert set(rows) == {"router", "recorder", "platform", "teacher", "learner", "arbitrator"}
         pids = {name: row["pid"] for name, row in rows.items()}
         assert len(set(pids.values())) == 5 and all(alive(p) for p in pids.values())
         text = dogged_ok("ps", endpoint=endpoint).stdout

@@ -25,7 +25,7 @@ from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.lifecycle import StopFlag, setup_logging
 from services.bus.publishers import StatusPublisher, sensor_publisher
 from services.bus.queries import ask_owner
-from services.learners import DEFAULT_LEARNER, LEARNERS, make_learner
+from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
 from services.params import parse_params
@@ -171,7 +171,8 @@ class LearnerNode:
         y = self.output_space.clip(p.y)
         if not np.array_equal(y, p.y):
             self.counts["clipped"] += 1  # the learner's own bound is its taught range; the robot's is this
-        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, float(p.confidence))))
+        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, float(p.confidence),
+                                     learned=self.model.n_learned)))
         self.counts["proposals"] += 1
 
     def on_query(self, query: zenoh.Query):
@@ -217,15 +218,6 @@ def history_query_problem(params) -> str:
         if name not in ("upto", "epoch"):
             return f"history: unknown parameter {name[:32]!r}; known: epoch, upto"
     return ""
-
-
-def compile_kernels(model) -> None:
-    """Run a throw-away copy once, so compiled kernels are built before this learner says it is ready."""
-    scratch = model.clone()
-    rng = np.random.default_rng(0)
-    for _ in range(3):  # varied samples: some learners (GP) build their model only once targets vary
-        scratch.learn_one(rng.uniform(-1.0, 1.0, model.n_in), rng.uniform(-1.0, 1.0, model.n_out))
-    scratch.predict_one(np.zeros(model.n_in))
 
 
 def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: str = "learner", seed: int = 0,

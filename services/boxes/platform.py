@@ -111,6 +111,7 @@ class PlatformLoop:
             applied = self.platform.step(self.latest.y, dt)
             self.applied_tick = self.latest.tick
             self.applied_pub.put(encode(Applied(self.latest.tick, applied, False)))
+            self.counts["applied"] += 1
         elif self.latest is not None and time.monotonic() - self.latest_at <= watchdog:
             self.platform.step(self.latest.y, dt)  # late answer, watchdog not fired: keep the last command
         else:
@@ -125,7 +126,7 @@ class PlatformLoop:
                 "unanswered": self.n_unanswered + len(in_window),
                 "first_unanswered": (self.unanswered + in_window)[:1000],
                 "last_unanswered": (list(self.last_unanswered) + in_window)[-1000:],
-                "held": self.counts["held"], "rejected": self.rejects.total}
+                "held": self.counts["held"], "applied": self.counts["applied"], "rejected": self.rejects.total}
 
     def status(self):
         since = time.monotonic() - LATENCY_WINDOW_S

@@ -126,6 +126,13 @@ def plot_error(path: Path, t: np.ndarray, error: np.ndarray, teaching: np.ndarra
     ax.set_title(title, pad=14 if phases else 6)
     ax.set_xlim(float(t[0]) if len(t) else 0, float(t[-1]) if len(t) else 1)
     ax.set_ylim(bottom=0)
+    return save_figure(fig, ax, path)
+
+
+def save_figure(fig, ax, path: Path) -> Path:
+    """A plot's legend and layout, saved as a PNG (its folder made), the figure closed; returns the path."""
+    import matplotlib.pyplot as plt
+
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     path = Path(path)

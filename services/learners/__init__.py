@@ -15,7 +15,7 @@ from .gp import GP  # each learner module registers its learner (services/learne
 from .knn import KNN
 from .lwpr import LWPR
 from .per_output import PerOutput
-from .registry import LEARNERS, make_learner
+from .registry import LEARNERS, compile_kernels, make_learner
 from .sogp import SOGP
 
 # the learner the system is wired with (deploy profiles, experiments, demo, the learner box)
@@ -24,5 +24,5 @@ DEFAULT_LEARNER = "gp"
 __all__ = [
     "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction",
            "Predictions",
-    "SOGP", "UnknownLearnerError", "make_learner",
+    "SOGP", "UnknownLearnerError", "compile_kernels", "make_learner",
 ]

@@ -4,6 +4,8 @@ It imports no learner, so a learner that builds others by name (per-output) can 
 """
 from __future__ import annotations
 
+import numpy as np
+
 from . import snapshot_codec
 from .base import TaughtRange
 from .errors import UnknownLearnerError
@@ -34,3 +36,12 @@ def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parame
         if key not in accepted:
             raise ValueError(f"unknown hyper-parameter {key!r} for {name}; accepted: {', '.join(accepted)}")
     return cls(n_in, n_out, seed=seed, **hyper_parameters)
+
+
+def compile_kernels(model) -> None:
+    """Run a throw-away copy once, so compiled kernels are built before this learner says it is ready."""
+    scratch = model.clone()
+    rng = np.random.default_rng(0)
+    for _ in range(3):  # varied samples: some learners (GP) build their model only once targets vary
+        scratch.learn_one(rng.uniform(-1.0, 1.0, model.n_in), rng.uniform(-1.0, 1.0, model.n_out))
+    scratch.predict_one(np.zeros(model.n_in))

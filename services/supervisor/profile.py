@@ -1,6 +1,7 @@
 """Deploy profiles: declarative data (TOML), validated at start with errors that name the field."""
 from __future__ import annotations
 
+import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -127,6 +128,9 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
         if key not in ("profile", "zenoh", "services"):
             raise ProfileError(f"{path}: {key}: unknown table; known: profile, zenoh, services")
     head = data.get("profile", {})
+    for key in head:
+        if key not in HEAD_FIELDS:
+            raise ProfileError(f"profile.{key}: unknown field; known: {', '.join(HEAD_FIELDS)}")
     name = _get(head, "name", str, "profile", path.stem.replace(".", "-"))
     instance = _get(head, "instance", str, "profile", "main")
     try:
@@ -141,6 +145,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     if not isinstance(services, dict) or not services:
         raise ProfileError("services: at least one [services.<name>] table is required")
     specs = tuple(_service(n, t if isinstance(t, dict) else {}, instance, f"services.{n}") for n, t in services.items())
+    specs = _with_recorder(specs, head, instance, log_dir)
     names = {s.name for s in specs}
     for spec in specs:
         for other in spec.after:
@@ -180,6 +185,39 @@ def _check_security(profile: Profile) -> None:
     if not (profile.security / "ca.pem").is_file() or missing:
         raise ProfileError(f"zenoh.security: {profile.security} lacks {', '.join(missing) or 'ca.pem'}; make them "
                            f"with `dogged certs {profile.security} --profile {profile.path}`")
+
+
+HEAD_FIELDS = ("name", "instance", "log_dir", "state_dir", "low_latency", "record", "record_dir", "record_rotate_mb",
+               "record_rotate_min")
+
+
+def _with_recorder(specs: tuple[ServiceSpec, ...], head: dict, instance: str, log_dir: Path) -> tuple:
+    """The profile's services and, unless `record = false` or the profile runs a recorder of its own, a
+    recorder of every instance and robot they use, into <record_dir>/<the time of `up`>/ (first, so the
+    run is recorded from its start)."""
+    record = _get(head, "record", bool, "profile", True)
+    folder = Path(_get(head, "record_dir", str, "profile", str(log_dir.parent / "recordings")))
+    rotate_mb = _get(head, "record_rotate_mb", (int, float), "profile", 512)
+    rotate_min = _get(head, "record_rotate_min", (int, float), "profile", 30)
+    if rotate_mb <= 0 or rotate_min <= 0:
+        raise ProfileError("profile: record_rotate_mb and record_rotate_min must be > 0")
+    if not record or any(s.box == "recorder" for s in specs):
+        return specs
+    if any(s.name == "recorder" for s in specs):
+        raise ProfileError("services.recorder: the name of the profile's recorder; name this service otherwise "
+                           "or set profile.record = false")
+    instances = list(dict.fromkeys([instance] + [s.instance for s in specs]))
+    robots = list(dict.fromkeys(_arg(s, "--robot", "aibo") for s in specs if s.box in ("aibo", "perception")))
+    args = [arg for i in instances[1:] for arg in ("--instance", i)] + [a for r in robots for a in ("--robot", r)]
+    run = folder / time.strftime("%Y-%m-%dT%H-%M-%S", time.localtime())
+    args += ["--out", str(run), "--rotate-mb", str(rotate_mb), "--rotate-min", str(rotate_min)]
+    return (ServiceSpec("recorder", "recorder", instance, tuple(args), restart="always", max_restarts=100), *specs)
+
+
+def _arg(spec: ServiceSpec, flag: str, default: str) -> str:
+    """The value a service's args give `flag` (its last), else `default`."""
+    values = [spec.args[i + 1] for i, a in enumerate(spec.args[:-1]) if a == flag]
+    return values[-1] if values else default
 
 
 def _check_no_cycle(specs) -> None:

@@ -216,6 +216,9 @@ class Supervisor:
             row = proc.describe()
             status = self.status_of(proc.spec)
             row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status))
+            error = status.get("state", {}).get("error")
+            if error and isinstance(error, str) and "why" not in row:  # a service says what it cannot do
+                row["why"] = error[:200]
             rows.append(row)
         for spec in self.waiting:
             why = "after " + ", ".join(f"{a} ({self.procs[a].state})" if a in self.procs else a for a in spec.after)

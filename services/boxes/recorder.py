@@ -1,0 +1,183 @@
+"""The recorder: every sample of the instances and robots it is given, into MCAP files (services.recording).
+
+Each payload is checked against the bus schema before it is written (one that does not decode is
+counted and logged, not recorded); the platform's spaces go into every file as metadata. A folder it
+cannot write (unwritable, a full disk) is an error in its status (`dogged ps`) and its log: it keeps
+running, counts what it could not record, and tries a new file every few seconds; the loop never
+waits for it.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import socket
+import time
+from pathlib import Path
+
+import zenoh
+
+from bus_schema import InstanceKeys, RobotKeys, SchemaError, SpacesMessage, decode
+from bus_schema.catalog import payload_of
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import Inbox, Rejects
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher
+from services.recording.reader import is_finished, repair
+from services.recording.writer import RunWriter, file_index
+
+RETRY_S = 5.0  # after a write failed, how long before a new file is tried
+STAMPED = ("stamp",)  # payload fields that hold the sender's wall clock: the MCAP publish time
+
+
+class Recording:
+    """The recorder's state, driven by samples (bus-free: tests hand it samples and fail its files)."""
+
+    def __init__(self, writer: RunWriter, log):
+        self.writer, self.log = writer, log
+        self.rejects, self.counts = Rejects(log), collections.Counter()
+        self.error, self._retry_at = "", 0.0
+
+    def on_sample(self, key: str, raw: bytes, log_ns: int) -> None:
+        found = payload_of(key)
+        if found is None:
+            self.counts["unknown_keys"] += 1  # liveliness and queries carry no sample; anything else is news
+            return
+        try:
+            msg = decode(found[0], raw, key)
+        except SchemaError as err:
+            self.rejects(key, err)
+            return
+        stamp = getattr(msg, "stamp", None)
+        publish_ns = int(stamp * 1e9) if isinstance(stamp, float) and stamp > 0 else log_ns
+        if self.error and time.monotonic() < self._retry_at:
+            self.counts["not_recorded"] += 1
+            return
+        try:
+            self.writer.write(key, found[0], raw, log_ns, publish_ns)
+        except OSError as err:
+            self.failed(err)
+            self.counts["not_recorded"] += 1
+            return
+        if self.error:
+            self.log.info("recording again, into %s", self.writer.path)
+            self.error = ""
+        self.counts["recorded"] += 1
+
+    def on_spaces(self, key: str, raw: bytes) -> None:
+        name = f"spaces {key.rsplit('/', 1)[0]}"
+        if name in self.writer.metadata:
+            return
+        try:
+            spaces = decode(SpacesMessage, raw, key).spaces
+        except SchemaError as err:
+            self.rejects(key, err)
+            return
+        self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+
+    def upkeep(self) -> None:
+        try:
+            self.writer.upkeep()
+        except OSError as err:
+            self.failed(err)
+
+    def failed(self, err: OSError) -> None:
+        where = self.writer.path or self.writer.folder
+        error = f"cannot write {where}: {err.strerror or err}"
+        lost = self.writer.abandon()  # what was written since the last flush is not on disk
+        self.counts["recorded"] -= lost
+        self.counts["not_recorded"] += lost
+        if error != self.error:  # once per kind of failure, not once per retry
+            self.log.error("%s; the loop goes on unrecorded; trying a new file every %g s", error, RETRY_S)
+        self.error, self._retry_at = error, time.monotonic() + RETRY_S
+        self.counts["write_errors"] += 1
+
+    def status(self):
+        counters = dict(self.counts, rejected=self.rejects.total, files=self.writer.files_written,
+                        file_bytes=self.writer.bytes_in_file)
+        return counters, {"folder": str(self.writer.folder), "file": str(self.writer.path or ""), "error": self.error}
+
+
+def repair_unfinished(folder: Path, name: str, log) -> None:
+    """This recorder's files a killed run left unfinished, rewritten as finished ones."""
+    if not folder.is_dir():
+        return
+    for path in sorted(folder.glob(f"{name}-*.mcap")):
+        if file_index(path, name) is not None and not is_finished(path):
+            try:
+                log.info("repaired %s (left unfinished): %d messages", path, repair(path))
+            except OSError as err:
+                log.error("could not repair %s: %s", path, err)
+
+
+def ask_spaces(session, keys: list[str], inbox: Inbox) -> None:
+    """Ask each spaces queryable; answers come into the inbox as ('spaces', key, payload)."""
+    def on_reply(reply):
+        if reply.ok is not None:
+            inbox.put(("spaces", str(reply.ok.key_expr), reply.ok.payload.to_bytes(), None))
+    for key in keys:
+        session.get(key, on_reply, timeout=2.0)
+
+
+def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str, out: Path, rotate_mb: float,
+         rotate_min: float, flush_s: float) -> int:
+    log = setup_logging("recorder", name)
+    stop, inbox = StopFlag(), Inbox()
+    repair_unfinished(out, name, log)
+    writer = RunWriter(out, name, int(rotate_mb * 1e6), rotate_min * 60.0, flush_s)
+    writer.add_metadata("run", {"instances": ",".join(instances), "robots": ",".join(robots),
+                                "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%SZ",
+                                                                                       time.gmtime())})
+    recording = Recording(writer, log)
+    spaces_keys = [InstanceKeys(i).spaces for i in instances] + [RobotKeys(r).spaces for r in robots]
+    status_key = InstanceKeys(instances[0]).status("recorder", name)
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        inbox.put(("sample", str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
+
+    with zenoh.open(conf) as session:
+        held = [session.declare_subscriber(f"{InstanceKeys(i).prefix}/**", on_sample) for i in instances]
+        held += [session.declare_subscriber(f"{RobotKeys(r).prefix}/**", on_sample) for r in robots]
+        held.append(session.liveliness().declare_token(InstanceKeys(instances[0]).alive("recorder", name)))
+        status = StatusPublisher(session, status_key, "recorder", name)
+        log.info("recording %s into %s", ", ".join([f"dl/{i}" for i in instances] + [f"robot/{r}" for r in robots]),
+                 out)
+        asked = 0.0
+        while not stop:
+            if time.monotonic() - asked > 2.0 and any(f"spaces {k.rsplit('/', 1)[0]}" not in writer.metadata
+                                                      for k in spaces_keys):
+                ask_spaces(session, spaces_keys, inbox)
+                asked = time.monotonic()
+            for tag, key, raw, log_ns in inbox.drain(0.05):
+                if tag == "sample":
+                    recording.on_sample(key, raw, log_ns)
+                else:
+                    recording.on_spaces(key, raw)
+            recording.upkeep()
+            status.maybe_publish(recording.status)
+        try:
+            writer.close()
+        except OSError as err:
+            recording.failed(err)
+        del held
+    log.info("stopped: %d samples recorded in %d files", recording.counts["recorded"], writer.files_written)
+    return 0
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged run recorder", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", action="append", default=None, help="a DL instance to record (repeatable)")
+    parser.add_argument("--robot", action="append", default=[], help="a robot's streams to record (repeatable)")
+    parser.add_argument("--name", default="recorder")
+    parser.add_argument("--out", required=True, help="the run's folder: MCAP files go here")
+    parser.add_argument("--rotate-mb", type=float, default=512.0, help="start a new file past this size")
+    parser.add_argument("--rotate-min", type=float, default=30.0, help="start a new file after this long")
+    parser.add_argument("--flush-s", type=float, default=0.5,
+                        help="finish the chunk in progress this often (what a kill can lose)")
+    add_bus_args(parser)
+    a = parser.parse_args(argv)
+    if a.rotate_mb <= 0 or a.rotate_min <= 0 or not 0 < a.flush_s <= 1.0:
+        parser.error("--rotate-mb and --rotate-min must be > 0, --flush-s in (0, 1]")
+    instances = list(dict.fromkeys(a.instance or ["main"]))
+    return main(config_from_args(a), instances, list(dict.fromkeys(a.robot)), a.name, Path(a.out), a.rotate_mb,
+                a.rotate_min, a.flush_s)

@@ -1,0 +1,126 @@
+"""A recorded run read back: its MCAP files in order, each sample's key, times and raw payload, and the
+run's metadata. A file its recorder could not finish (killed, a full disk) reads up to its last whole
+chunk; `repair` rewrites such a file as a finished one (summary, indexes), as `mcap recover` would."""
+from __future__ import annotations
+
+import json
+import os
+import struct
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from mcap.exceptions import McapError
+from mcap.records import Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+from mcap.well_known import MessageEncoding
+from mcap.writer import CompressionType, Writer
+
+from bus_schema import SchemaError, decode
+from bus_schema.catalog import payload_of
+
+MAGIC = b"\x89MCAP0\r\n"
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    key: str
+    log_ns: int      # when the recorder received it (its wall clock)
+    publish_ns: int  # the sender's stamp where the payload has one, else log_ns
+    raw: bytes
+
+    def decoded(self):
+        """The payload as its bus_schema class (SchemaError if it does not decode)."""
+        found = payload_of(self.key)
+        if found is None:
+            raise SchemaError(self.key, "*", "not a key the bus publishes on")
+        return decode(found[0], self.raw, self.key)
+
+
+def run_files(run: str | Path) -> list[Path]:
+    """A run's MCAP files in the order they were written: a folder's *.mcap by name, or one file."""
+    run = Path(run)
+    if run.is_file():
+        return [run]
+    files = sorted(run.glob("*.mcap"))
+    if not files:
+        raise FileNotFoundError(f"{run}: no .mcap files (a run is a recorder's folder, or one of its files)")
+    return files
+
+
+def is_finished(path: Path) -> bool:
+    """Whether a file ends with MCAP's closing magic (its recorder finished it)."""
+    size = path.stat().st_size
+    if size < len(MAGIC) * 2:
+        return False
+    with open(path, "rb") as f:
+        f.seek(size - len(MAGIC))
+        return f.read() == MAGIC
+
+
+def _records(path: Path, truncated: list) -> Iterator:
+    """Every record of the file, chunks opened; stops at a cut-off tail (noted in `truncated`)."""
+    with open(path, "rb") as f:
+        try:
+            yield from StreamReader(f, validate_crcs=True).records
+        except (McapError, ValueError, EOFError, struct.error) as err:  # a cut record, a chunk half written
+            truncated.append((path, f"{type(err).__name__}: {err}"))
+
+
+def iter_samples(run: str | Path, keys: set[str] | None = None, truncated: list | None = None) -> Iterator[Sample]:
+    """Every sample of the run (only `keys` if given), in the order the recorder received them."""
+    truncated = [] if truncated is None else truncated
+    for path in run_files(run):
+        channels: dict[int, str] = {}
+        for record in _records(path, truncated):
+            if isinstance(record, Channel):
+                channels[record.id] = record.topic
+            elif isinstance(record, Message):
+                key = channels[record.channel_id]
+                if keys is None or key in keys:
+                    yield Sample(key, record.log_time, record.publish_time, record.data)
+
+
+def read_metadata(run: str | Path) -> dict[str, dict[str, str]]:
+    """The run's metadata by name (the first file that has a name wins): spaces, the run's description."""
+    found: dict[str, dict[str, str]] = {}
+    for path in run_files(run):
+        for record in _records(path, []):
+            if isinstance(record, Metadata):
+                found.setdefault(record.name, dict(record.metadata))
+    return found
+
+
+def spaces_in(metadata: dict, instance: str) -> dict | None:
+    """The spaces (Spaces.to_dict) recorded for an instance, if the recorder got them."""
+    entry = metadata.get(f"spaces dl/{instance}")
+    return json.loads(entry["spaces"]) if entry else None
+
+
+def repair(path: Path) -> int:
+    """Rewrite an unfinished file as a finished one holding every whole record; returns its messages."""
+    tmp = path.with_suffix(".repairing")
+    schemas: dict[int, int] = {}
+    channels: dict[int, int] = {}
+    count = 0
+    with open(tmp, "wb") as out:
+        writer = Writer(out, compression=CompressionType.ZSTD)
+        writer.start(profile="dogged", library="dogged recorder (repaired)")
+        for record in _records(path, []):
+            if isinstance(record, Schema):
+                schemas[record.id] = writer.register_schema(record.name, record.encoding, record.data)
+            elif isinstance(record, Channel):
+                channels[record.id] = writer.register_channel(record.topic, record.message_encoding or
+                                                              MessageEncoding.MessagePack,
+                                                              schemas.get(record.schema_id, 0), record.metadata)
+            elif isinstance(record, Metadata):
+                writer.add_metadata(record.name, dict(record.metadata))
+            elif isinstance(record, Message) and record.channel_id in channels:
+                writer.add_message(channels[record.channel_id], record.log_time, record.data, record.publish_time,
+                                   record.sequence)
+                count += 1
+        writer.finish()
+        out.flush()
+        os.fsync(out.fileno())
+    os.replace(tmp, path)
+    return count

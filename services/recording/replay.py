@@ -1,0 +1,101 @@
+"""Retrain learners on a recorded run's training pairs, in their recorded order, and evaluate each on every
+recorded input (the paper's section VI: compare learning algorithms on the same experience, freed from
+real time).
+
+Each input is answered after the pairs the live learner had learned when it answered that tick (its
+proposals say how many), or, where no live learner answered, after the pairs of earlier ticks; so the
+live learner's own class, parameters and seed reproduce its recorded answers.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from services.arbitration.algorithm2 import learn_pair
+from services.learners import compile_kernels, make_learner
+from services.params import parse_params
+from services.recording.runs import RecordedRun
+from services.supervisor.swap import parse_learner_spec
+
+
+@dataclass
+class Replayed:
+    spec: str
+    y: np.ndarray           # (n, n_out) its answer to every recorded input
+    confidence: np.ndarray  # (n,)
+    learn_s: float          # time spent learning
+    predict_s: float
+    updates: int
+    size: int
+
+
+def learner_from_spec(spec: str, n_in: int, n_out: int, seed: int):
+    name, flags = parse_learner_spec(spec)
+    return make_learner(name, n_in, n_out, seed=seed, **parse_params(flags[1::2]))
+
+
+def schedule(run: RecordedRun, live: str | None = None) -> np.ndarray:
+    """Per recorded input, how many pairs are learned before it is answered: the pairs of earlier ticks,
+    or, given a live learner, what it had learned when it answered that tick (carried over the ticks it
+    did not answer; before its first answer, no more than it had then)."""
+    counts = np.searchsorted(np.sort(run.pair_ticks), run.ticks, side="left")  # pairs of earlier ticks
+    answers = run.live.get(live) if live else None
+    if answers is not None and len(answers.ticks):
+        where = np.searchsorted(run.ticks, answers.ticks).clip(0, len(run.ticks) - 1)
+        ok = (run.ticks[where] == answers.ticks) & (answers.learned >= 0)
+        if ok.any():
+            known = np.full(len(run.ticks), -1)
+            known[where[ok]] = np.minimum(answers.learned[ok], len(run.pair_ticks))
+            last = np.maximum.accumulate(np.where(known >= 0, np.arange(len(known)), -1))
+            first = known[last[last >= 0][0]]
+            counts = np.where(last >= 0, known[last.clip(0)], np.minimum(counts, first))
+    return np.maximum.accumulate(counts)
+
+
+def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None = None,
+           quasi_batch: bool = False, progress=None) -> Replayed:
+    """`spec` trained on the run's pairs and answering every input after `plan[i]` pairs (default:
+    `schedule(run)`). quasi_batch: not online; refit from scratch on every pair so far at the end of
+    each teaching span (the paper's proposal), answering in between with the last fit."""
+    plan = schedule(run) if plan is None else plan
+    n_in, n_out = run.spaces.input.dims, run.spaces.output.dims
+    model = learner_from_spec(spec, n_in, n_out, seed)
+    compile_kernels(model)  # as the live learner does before it serves: compiling is not learning
+    ys, confidence = np.empty((len(run.ticks), n_out)), np.empty(len(run.ticks))
+    learned, learn_s, predict_s = 0, 0.0, 0.0
+    fitted_upto = 0
+    for i, x in enumerate(run.x):
+        start = time.perf_counter()
+        if quasi_batch:
+            if span_ended(run, i) and plan[i] > fitted_upto:
+                model, fitted_upto = learner_from_spec(spec, n_in, n_out, seed), int(plan[i])
+                learn_all(model, run, fitted_upto)
+        else:
+            while learned < plan[i]:
+                learn_pair(model, run.pair_x[learned], run.pair_y[learned], run.pair_mask[learned])
+                learned += 1
+        middle = time.perf_counter()
+        p = model.predict_one(x)
+        ys[i], confidence[i] = run.spaces.output.clip(p.y), p.confidence
+        predict_s += time.perf_counter() - middle
+        learn_s += middle - start
+        if progress is not None:
+            progress(1)
+    return Replayed(spec, ys, confidence, learn_s, predict_s, fitted_upto if quasi_batch else learned,
+                    int(model.size))
+
+
+def span_ended(run: RecordedRun, i: int) -> bool:
+    """Whether input i is the first after a teaching span (the teacher drove the tick before, not this)."""
+    return i > 0 and run.modes[i - 1] == "teacher" and run.modes[i] != "teacher"
+
+
+def learn_all(model, run: RecordedRun, n: int) -> None:
+    """The first n pairs in one batch (per pair where some are partial)."""
+    if n and np.all(run.pair_mask[:n] == 1):
+        model.learn_many(run.pair_x[:n], run.pair_y[:n])
+        return
+    for x, y, mask in zip(run.pair_x[:n], run.pair_y[:n], run.pair_mask[:n]):
+        learn_pair(model, x, y, mask)

@@ -1,0 +1,120 @@
+"""Bus samples into MCAP files: one channel per key (its topic), msgpack messages, each payload class's
+JSON Schema in the file, zstd chunks with message indexes. A file is rotated by size or age, and its
+chunk in progress is finished every `flush_s`, so a recorder killed outright loses at most that long."""
+from __future__ import annotations
+
+import json
+import re
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import CompressionType, Writer
+
+from bus_schema.catalog import json_schema
+
+PROFILE = "dogged"  # the MCAP header's profile: files written by this recorder
+_NAME = "{name}-{index:04d}-{stamp}.mcap"
+
+
+def file_index(path: Path, name: str) -> int | None:
+    """The index of one of recorder `name`'s files (<name>-<index>-<stamp>.mcap), else None."""
+    match = re.fullmatch(rf"{re.escape(name)}-(\d{{4,}})-[0-9T-]+\.mcap", path.name)
+    return int(match.group(1)) if match else None
+
+
+class RunWriter:
+    """MCAP files `<name>-<index>-<stamp>.mcap` in `folder`; indexes continue after the files already there
+    (a restarted recorder adds to its run). `open_file` opens a path for binary writing (tests inject
+    failures); OSError from it or from writing is the caller's to report."""
+
+    def __init__(self, folder: Path, name: str, rotate_bytes: int, rotate_s: float, flush_s: float = 0.5,
+                 open_file: Callable = open):
+        self.folder, self.name = Path(folder), name
+        self.rotate_bytes, self.rotate_s, self.flush_s, self.open_file = rotate_bytes, rotate_s, flush_s, open_file
+        self.metadata: dict[str, dict[str, str]] = {}  # written into every file
+        self.path: Path | None = None
+        self.files_written, self.messages = 0, 0
+        self.pending = 0  # messages written since the last flush: what a failure now loses
+        self._writer = self._stream = None
+        self._schemas: dict[type, int] = {}
+        self._channels: dict[str, int] = {}
+        self._sequence: dict[str, int] = {}
+        self._opened = self._flushed = 0.0
+
+    def next_path(self) -> Path:
+        indexes = [i for p in self.folder.glob(f"{self.name}-*.mcap") if (i := file_index(p, self.name)) is not None]
+        stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
+        return self.folder / _NAME.format(name=self.name, index=max(indexes, default=-1) + 1, stamp=stamp)
+
+    def _open(self) -> None:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        path = self.next_path()
+        self._stream = self.open_file(path, "wb")
+        self._writer = Writer(self._stream, chunk_size=1 << 20, compression=CompressionType.ZSTD)
+        self._writer.start(profile=PROFILE, library="dogged recorder")
+        self.path, self._schemas, self._channels, self._sequence = path, {}, {}, {}
+        self._opened = self._flushed = time.monotonic()
+        self.files_written += 1
+        for name, data in self.metadata.items():
+            self._writer.add_metadata(name, data)
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        """Kept and written into this file and every later one (spaces, the run's description)."""
+        self.metadata[name] = data
+        if self._writer is not None:
+            self._writer.add_metadata(name, data)
+
+    def write(self, key: str, cls: type, raw: bytes, log_ns: int, publish_ns: int) -> None:
+        if self._writer is None:
+            self._open()
+        channel = self._channels.get(key)
+        if channel is None:
+            schema = self._schemas.get(cls)
+            if schema is None:
+                schema = self._schemas[cls] = self._writer.register_schema(
+                    f"dogged.{cls.__name__}", SchemaEncoding.JSONSchema, json.dumps(json_schema(cls)).encode())
+            channel = self._channels[key] = self._writer.register_channel(key, MessageEncoding.MessagePack, schema)
+        sequence = self._sequence[key] = self._sequence.get(key, 0) + 1
+        self._writer.add_message(channel, log_time=log_ns, data=raw, publish_time=publish_ns, sequence=sequence)
+        self.messages += 1
+        self.pending += 1
+
+    def upkeep(self) -> None:
+        """Call often: finishes the chunk in progress every flush_s, rotates when the file is big or old."""
+        if self._writer is None:
+            return
+        now = time.monotonic()
+        if now - self._flushed >= self.flush_s:
+            self._writer.flush()
+            self._flushed, self.pending = now, 0
+        if self._stream.tell() >= self.rotate_bytes or now - self._opened >= self.rotate_s:
+            self.close()
+
+    @property
+    def bytes_in_file(self) -> int:
+        return self._stream.tell() if self._stream is not None else 0
+
+    def abandon(self) -> int:
+        """After a write failed (a full disk): drop the file as it is (the reader and `repair` take what it
+        holds); the next write opens another. Returns the messages lost (those since the last flush)."""
+        stream, self._writer, self._stream = self._stream, None, None
+        lost, self.pending = self.pending, 0
+        try:
+            if stream is not None:
+                stream.close()
+        except OSError:
+            pass
+        return lost
+
+    def close(self) -> None:
+        """Finishes the file (summary, indexes, footer); the next write opens another."""
+        writer, stream, self._writer, self._stream = self._writer, self._stream, None, None
+        if writer is None:
+            return
+        try:
+            writer.finish()
+            self.pending = 0
+        finally:
+            stream.close()

@@ -1,0 +1,155 @@
+"""The recorder without a bus: MCAP files that mcap's own reader opens, rotation, a cut file read and
+repaired, a full disk reported and survived, the profile's recorder."""
+import json
+import logging
+import shutil
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from bus_schema import Command, Input, Proposal, Status, TrainingPair, encode
+from bus_schema.catalog import LOSSLESS, payload_of
+from services.boxes import recorder as recorder_box
+from services.boxes.recorder import Recording
+from services.recording.reader import is_finished, iter_samples, read_metadata, repair, run_files
+from services.recording.writer import RunWriter
+from services.supervisor.profile import ProfileError, load_profile
+
+LOG = logging.getLogger("test.recorder")
+
+
+def samples(n: int):
+    """n ticks of a loop: input, learner proposal, command, and a training pair every other tick."""
+    for t in range(1, n + 1):
+        x = np.array([t * 0.01, -t * 0.02])
+        yield "dl/main/input", encode(Input(t, 1e9 + t / 100, x))
+        yield "dl/main/proposal/learner/l", encode(Proposal(t, "learner/l", np.array([0.5]), 0.3, learned=t // 2))
+        yield "dl/main/command", encode(Command(t, 1e9 + t / 100, np.array([0.5]), "student", "learner/l", 0.3))
+        if t % 2:
+            yield "dl/main/train", encode(TrainingPair("e1", (t + 1) // 2, t, x, np.array([np.sin(t)]), "teacher/s"))
+
+
+def record(folder, n=200, upkeep=False, **writer_args):
+    writer = RunWriter(folder, "recorder", **{"rotate_bytes": 10**9, "rotate_s": 3600.0, **writer_args})
+    rec = Recording(writer, LOG)
+    for i, (key, raw) in enumerate(samples(n)):
+        rec.on_sample(key, raw, 10**18 + i)
+        if upkeep:
+            rec.upkeep()
+    return rec
+
+
+def test_a_recording_reads_back_with_mcaps_own_reader(tmp_path):
+    rec = record(tmp_path)
+    rec.on_sample("dl/main/status/learner/l", encode(Status("learner", "l", 1, {"proposals": 200}, {})), 2 * 10**18)
+    rec.writer.close()
+    [path] = run_files(tmp_path)
+    assert is_finished(path)
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        counts = {summary.channels[c].topic: n for c, n in summary.statistics.channel_message_counts.items()}
+        assert counts == {"dl/main/input": 200, "dl/main/proposal/learner/l": 200, "dl/main/command": 200,
+                          "dl/main/train": 100, "dl/main/status/learner/l": 1}
+        assert {s.name for s in summary.schemas.values()} == {"dogged.Input", "dogged.Proposal", "dogged.Command",
+                                                             "dogged.TrainingPair", "dogged.Status"}
+        assert all(s.encoding == "jsonschema" for s in summary.schemas.values())
+        assert all(c.message_encoding == "msgpack" for c in summary.channels.values())
+        assert summary.statistics.chunk_count >= 1 and summary.chunk_indexes
+        seqs = [m.sequence for _, c, m in reader.iter_messages(topics=["dl/main/train"])]
+        assert seqs == list(range(1, 101))
+    decoded = [s.decoded() for s in iter_samples(tmp_path, {"dl/main/proposal/learner/l"})]
+    assert [p.learned for p in decoded] == [t // 2 for t in range(1, 201)]
+    stamps = [s.publish_ns for s in iter_samples(tmp_path, {"dl/main/input"})]
+    assert stamps[0] == int((1e9 + 0.01) * 1e9)  # the input's stamp is the publish time
+
+
+def test_a_payload_that_does_not_decode_is_rejected_not_recorded(tmp_path):
+    rec = record(tmp_path, n=5)
+    rec.on_sample("dl/main/input", b"\x93garbage", 1)
+    rec.on_sample("dl/main/input", encode(Input(6, 1.0, np.array([np.nan, 0.0]))), 2)
+    rec.on_sample("dl/main/alive/learner/l", b"", 3)
+    rec.writer.close()
+    assert rec.rejects.counts["dl/main/input"] == 2 and rec.counts["unknown_keys"] == 1
+    assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/input") == 5
+
+
+def test_files_rotate_by_size_and_continue_after_the_ones_there(tmp_path):
+    rec = record(tmp_path, n=2000, upkeep=True, rotate_bytes=20_000, flush_s=0.0)
+    rec.writer.close()
+    files = run_files(tmp_path)
+    assert len(files) >= 3 and all(is_finished(p) for p in files)
+    assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/command") == 2000
+    again = RunWriter(tmp_path, "recorder", 10**9, 3600.0)
+    assert again.next_path().name.startswith(f"recorder-{len(files):04d}-")
+
+
+def test_a_cut_file_reads_up_to_its_last_chunk_and_is_repaired(tmp_path):
+    rec = record(tmp_path, n=100, flush_s=0.0)
+    rec.writer.add_metadata("spaces dl/main", {"spaces": json.dumps({"input": 2})})
+    rec.upkeep()  # the chunk so far is whole on disk
+    for i, (key, raw) in enumerate(samples(50)):  # then more, in a chunk never finished
+        rec.on_sample(key, raw, 2 * 10**18 + i)
+    [path] = run_files(tmp_path)
+    cut = tmp_path / "cut" / path.name
+    cut.parent.mkdir()
+    shutil.copy(path, cut)  # what a SIGKILL leaves: no summary, no footer, the last chunk in memory lost
+    with open(cut, "ab") as f:
+        f.write(b"\x06" + b"\x00" * 5)  # and a record cut in its middle
+    assert not is_finished(cut)
+    truncated = []
+    inputs = [s for s in iter_samples(cut, truncated=truncated) if s.key == "dl/main/input"]
+    assert len(inputs) == 100 and truncated
+    assert repair(cut) == 350 and is_finished(cut)
+    with open(cut, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary.statistics.message_count == 350
+    assert json.loads(read_metadata(cut)["spaces dl/main"]["spaces"]) == {"input": 2}
+
+
+def test_a_full_disk_is_an_error_and_recording_resumes_when_it_can(tmp_path, monkeypatch):
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    full = {"on": True}
+
+    def open_file(path, mode):
+        return open("/dev/full" if full["on"] else path, mode)  # /dev/full: every write is ENOSPC
+
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=open_file)
+    rec = Recording(writer, LOG)
+    for i, (key, raw) in enumerate(samples(50)):
+        rec.on_sample(key, raw, i)
+        rec.upkeep()
+    assert "No space left on device" in rec.error and rec.counts["write_errors"] >= 1
+    assert rec.counts["not_recorded"] >= 1
+    full["on"] = False
+    for i, (key, raw) in enumerate(samples(10)):
+        rec.on_sample(key, raw, 100 + i)
+    writer.close()
+    assert rec.error == "" and rec.status()[1]["error"] == ""
+    assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/input") == 10
+
+
+def test_catalog_names_every_published_key():
+    assert payload_of("dl/main/train") == (TrainingPair, LOSSLESS)
+    assert payload_of("dl/main/proposal/teacher/alice")[0] is Proposal
+    assert payload_of("robot/aibo/camera")[0].__name__ == "Frame"
+    for key in ("dl/main/alive/learner/l", "dl/main/spaces", "dl/main/proposal/x", "dogged/supervisor/p/ps", "dl"):
+        assert payload_of(key) is None
+
+
+def test_every_profile_records_unless_told_not_to(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text('[profile]\nname = "p"\nlog_dir = "%s"\n[services.aibo]\nbox = "aibo"\nargs = ["--robot", "dog"]\n'
+                    '[services.low]\nbox = "learner"\ninstance = "walk"\n' % (tmp_path / "logs"))
+    profile = load_profile(path)
+    rec = profile.services[0]
+    assert (rec.name, rec.box, rec.instance, rec.restart) == ("recorder", "recorder", "main", "always")
+    args = list(rec.args)
+    assert args[:4] == ["--instance", "walk", "--robot", "dog"]
+    assert args[args.index("--out") + 1].startswith(str(tmp_path / "recordings"))
+    path.write_text(path.read_text().replace('name = "p"', 'name = "p"\nrecord = false'))
+    assert all(s.box != "recorder" for s in load_profile(path).services)
+    path.write_text(path.read_text().replace("record = false", "recrod = false"))
+    with pytest.raises(ProfileError, match="profile.recrod: unknown field"):
+        load_profile(path)

@@ -1,0 +1,93 @@
+"""`dogged replay` on a recorded run written without a bus: the table, the plot, the schedule, quasi-batch,
+and clear errors."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bus_schema import Command, Input, Proposal, TrainingPair, encode
+from services.platforms.point import PointPlatform
+from services.recording.replay import replay, schedule
+from services.recording.runs import load_run
+from services.recording.writer import RunWriter
+from services.teachers import make_teacher
+from tests.harness import REPO
+
+TICKS, TAUGHT = 600, 300  # 20 s at 30 Hz, the first half taught
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A point platform taught by the sine teacher for 10 s, then the student alone (a dumb one: zeros)."""
+    folder = tmp_path_factory.mktemp("run")
+    point = PointPlatform(dims=2, seed=3)
+    teacher = make_teacher("sine", point.spaces)
+    writer = RunWriter(folder, "recorder", 10**9, 3600.0)
+    writer.add_metadata("spaces dl/main", {"spaces": json.dumps(point.spaces.to_dict())})
+    seq = 0
+    for tick in range(1, TICKS + 1):
+        x, stamp, ns = point.observe(), 1000 + tick / 30, tick * 10**7
+        writer.write("dl/main/input", Input, encode(Input(tick, stamp, x)), ns, ns)
+        writer.write("dl/main/proposal/learner/l", Proposal,
+                     encode(Proposal(tick, "learner/l", np.zeros(2), 0.1, learned=seq)), ns + 1, ns + 1)
+        taught = tick <= TAUGHT
+        y = teacher(x)[0] if taught else np.zeros(2)
+        writer.write("dl/main/command", Command, encode(Command(tick, stamp, y, "teacher" if taught else "student",
+                                                                "t", 1.0)), ns + 2, ns + 2)
+        if taught:
+            seq += 1
+            writer.write("dl/main/train", TrainingPair, encode(TrainingPair("e", seq, tick, x, y, "teacher/t")),
+                         ns + 3, ns + 3)
+        point.step(y, 1 / 30)
+    writer.close()
+    return folder
+
+
+def test_the_schedule_follows_the_live_learner(run):
+    recorded = load_run(run)
+    plan = schedule(recorded, "l")
+    assert plan[0] == 0 and plan[TAUGHT - 1] == TAUGHT - 1 and plan[-1] == TAUGHT
+    assert np.array_equal(plan, schedule(recorded))  # here, as the pairs of earlier ticks say too
+
+
+def test_quasi_batch_refits_once_the_teaching_span_ends(run):
+    recorded = load_run(run)
+    online, batch = replay(recorded, "knn"), replay(recorded, "knn", quasi_batch=True)
+    assert batch.updates == TAUGHT and online.updates == TAUGHT
+    assert np.all(batch.confidence[:TAUGHT] == batch.confidence[0])  # nothing learned while taught
+    assert np.allclose(batch.y[TAUGHT + 1:], online.y[TAUGHT + 1:])  # one fit on every pair = online knn
+
+
+def test_dogged_replay_prints_the_table_and_writes_the_plot(run, tmp_path):
+    out = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(run), "--learner", "lwpr", "--learner",
+                          "knn:k=3", "--learner", "sogp", "--teacher", "sine", "--plot", str(tmp_path / "c.png"),
+                          "--json", str(tmp_path / "f.json")], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert f"{TICKS} inputs over 20.0 s, {TAUGHT} training pairs" in out.stdout
+    for row in ("live l", "lwpr", "knn:k=3", "sogp"):
+        assert f"\n{row} " in out.stdout, out.stdout
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    rows = {r["spec"]: r for r in json.loads((tmp_path / "f.json").read_text())}
+    assert rows["live l"]["student_error"] > 0.1  # the recorded student answered zeros
+    assert rows["sogp"]["student_error"] < rows["live l"]["student_error"]
+    assert rows["knn:k=3"]["size"] == TAUGHT
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--learner", "nonsense"], "no learner 'nonsense'"),
+    (["--learner", "lwpr:bogus=1"], "unknown hyper-parameter 'bogus'"),
+    (["--teacher", "nobody"], "unknown teacher 'nobody'"),
+    (["--instance", "other"], "no spaces of instance 'other'"),
+])
+def test_bad_arguments_are_clear_errors(run, args, message):
+    out = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(run), *args], cwd=REPO,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and message in out.stderr, out.stderr
+
+
+def test_a_folder_without_recordings_is_a_clear_error(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(tmp_path)], cwd=REPO,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "no .mcap files" in out.stderr, out.stderr
