@@ -50,7 +50,7 @@ def test_the_arbitrator_clips_a_teachers_command_and_what_it_teaches():
 
 class Wild:
     """A model whose answer is outside the robot's output space."""
-    n_in, n_out = 2, 2
+    n_in, n_out, n_learned = 2, 2, 0
 
     def predict_one(self, x):
         return Prediction(np.array([-4.0, 1.0]), 0.9)

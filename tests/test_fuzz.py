@@ -41,4 +41,4 @@ def test_teaching_works_after(fuzz):
 
 def test_a_ghost_teacher_is_not_waited_for(fuzz):
     """(a ghost `alive/teaching/<x>` token made every tick wait for the 20 ms deadline: issue 12)"""
-    assert fuzz.latency_ms_ghost < 10.0
+    assert fuzz.latency_ms_ghost < fuzz.latency_ms_before + 10.0  # half the deadline the bug added to every tick

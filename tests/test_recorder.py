@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from bus_schema import Command, Input, Proposal, Status, TrainingPair, encode
+from bus_schema import Command, Input, Proposal, SpacesMessage, Status, TrainingPair, encode
 from bus_schema.catalog import LOSSLESS, payload_of
 from services.boxes import recorder as recorder_box
 from services.boxes.recorder import Recording
+from services.platforms.point import PointPlatform
 from services.recording.reader import is_finished, iter_samples, read_metadata, repair, run_files
 from services.recording.writer import RunWriter
 from services.supervisor.profile import ProfileError, load_profile
@@ -73,6 +74,21 @@ def test_a_payload_that_does_not_decode_is_rejected_not_recorded(tmp_path):
     rec.writer.close()
     assert rec.rejects.counts["dl/main/input"] == 2 and rec.counts["unknown_keys"] == 1
     assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/input") == 5
+
+
+def test_once_the_spaces_are_known_vector_lengths_are_checked_too(tmp_path):
+    rec = record(tmp_path, n=3)
+    rec.on_sample("dl/main/input", encode(Input(4, 1.0, np.zeros(5))), 1)  # spaces unknown: any length
+    point = PointPlatform(dims=2)
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(point.spaces.to_dict())))
+    rec.on_sample("dl/main/input", encode(Input(5, 1.0, np.zeros(5))), 2)
+    rec.on_sample("dl/main/input", encode(Input(6, 1.0, np.zeros(4))), 3)
+    rec.on_sample("dl/main/command", encode(Command(6, 1.0, np.zeros(3), "student", "l", 0.5)), 4)
+    rec.on_spaces("dl/main/spaces", b"junk")  # known already: a later answer changes nothing
+    rec.writer.close()
+    assert rec.rejects.counts == {"dl/main/input": 1, "dl/main/command": 1}
+    assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/input") == 5
+    assert "spaces dl/main" in read_metadata(tmp_path)
 
 
 def test_files_rotate_by_size_and_continue_after_the_ones_there(tmp_path):

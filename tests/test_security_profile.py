@@ -42,7 +42,7 @@ def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
     profile = write_profile(tmp_path, endpoint, certs)
     made = cli("certs", str(certs), "--profile", str(profile), "--identity", "operator.bob")
     assert made.returncode == 0, made.stderr
-    assert "7 certificates" in made.stdout and (certs / "teacher.teacher.pem").is_file()
+    assert "8 certificates" in made.stdout and (certs / "teacher.teacher.pem").is_file()
     sup = dogged("up", str(profile), "--quiet", log=tmp_path / "supervisor.log")
     try:
         def rows(identity="operator.bob"):
@@ -97,7 +97,8 @@ def test_security_settings_are_checked_with_errors_that_name_the_field(tmp_path)
     with pytest.raises(ProfileError, match=r"zenoh.router: with zenoh.security the router listens on tls/"):
         load_profile(write_profile(tmp_path, "tcp/127.0.0.1:7447", tmp_path / "certs"))
     with pytest.raises(ProfileError, match=r"zenoh.security: .* lacks router.router, supervisor.suptest, "
-                                           r"platform.platform, teacher.teacher, learner.learner") as err:
+                                           r"recorder.recorder, platform.platform, teacher.teacher, "
+                                           r"learner.learner") as err:
         load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447", tmp_path / "nothing"))
     assert "make them with `dogged certs" in str(err.value)
 

@@ -60,7 +60,7 @@ def test_up_ps_sigkill_restart_down(tmp_path):
                     90, "every service ready")
         assert set(rows) == {"router", "recorder", "platform", "teacher", "learner", "arbitrator"}
         pids = {name: row["pid"] for name, row in rows.items()}
-        assert len(set(pids.values())) == 5 and all(alive(p) for p in pids.values())
+        assert len(set(pids.values())) == 6 and all(alive(p) for p in pids.values())
         text = dogged_ok("ps", endpoint=endpoint).stdout
         assert "learner" in text and "ready" in text
 
@@ -123,7 +123,7 @@ def test_services_stop_when_the_supervisor_is_killed(tmp_path):
     profile.write_text(SMALL.format(logs=tmp_path / "logs"))
     sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
     try:
-        rows = wait(lambda: (r := ps(endpoint)) and len(r) == 3 and all(x["state"] == "ready" for x in r.values())
+        rows = wait(lambda: (r := ps(endpoint)) and len(r) == 4 and all(x["state"] == "ready" for x in r.values())
                     and r, 90, "every service ready")
         pids = {name: row["pid"] for name, row in rows.items()}
         assert all(alive(p) for p in pids.values())

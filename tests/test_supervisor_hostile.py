@@ -53,7 +53,7 @@ def test_hostile_queries_and_a_forged_status_leave_the_supervisor_running(tmp_pa
         remote = [r["name"] for r in listed.data["services"] if r["state"] == "remote"]
         assert len(remote) == 64 and all(n.startswith("ghost") for n in remote), remote  # the freshest 64 only
         own = [r for r in ps(endpoint).values() if r["state"] != "remote"]  # the ghosts are listed, as remote
-        assert sup.poll() is None and len(own) == 5 and all(r["state"] == "ready" for r in own), own
+        assert sup.poll() is None and len(own) == 6 and all(r["state"] == "ready" for r in own), own
         assert dogged_ok("logs", "learner", "-n", "5", endpoint=endpoint).returncode == 0
         assert json.loads(dogged_ok("ps", "--json", endpoint=endpoint).stdout)["services"]
     finally:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import zenoh
 
-from bus_schema import InstanceKeys, RobotKeys, SchemaError, SpacesMessage, decode
+from bus_schema import InstanceKeys, RobotKeys, SchemaError, Spaces, SpacesMessage, decode
 from bus_schema.catalog import payload_of
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Inbox, Rejects
@@ -37,14 +37,15 @@ class Recording:
         self.writer, self.log = writer, log
         self.rejects, self.counts = Rejects(log), collections.Counter()
         self.error, self._retry_at = "", 0.0
+        self.dims: dict[str, dict] = {}  # dl/<instance> -> the vector lengths its spaces give (once known)
 
     def on_sample(self, key: str, raw: bytes, log_ns: int) -> None:
         found = payload_of(key)
         if found is None:
             self.counts["unknown_keys"] += 1  # liveliness and queries carry no sample; anything else is news
             return
-        try:
-            msg = decode(found[0], raw, key)
+        try:  # as strictly as the services that read it: vector lengths too, once the spaces are known
+            msg = decode(found[0], raw, key, self.dims.get(key[:key.find("/", 3)]))
         except SchemaError as err:
             self.rejects(key, err)
             return
@@ -65,15 +66,19 @@ class Recording:
         self.counts["recorded"] += 1
 
     def on_spaces(self, key: str, raw: bytes) -> None:
-        name = f"spaces {key.rsplit('/', 1)[0]}"
+        prefix = key.rsplit("/", 1)[0]
+        name = f"spaces {prefix}"
         if name in self.writer.metadata:
             return
         try:
             spaces = decode(SpacesMessage, raw, key).spaces
-        except SchemaError as err:
+            parsed = Spaces.from_dict(spaces)
+        except (SchemaError, KeyError, TypeError, ValueError) as err:
             self.rejects(key, err)
             return
         self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+        if prefix.startswith("dl/"):
+            self.dims[prefix] = {"x": parsed.input.dims, "y": parsed.output.dims}
 
     def upkeep(self) -> None:
         try:

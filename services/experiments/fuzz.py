@@ -100,8 +100,8 @@ def malformed(cls, rng: np.random.Generator) -> tuple[bytes, str]:
         return msgpack.packb(rng.uniform(-1e9, 1e9, int(rng.integers(0, 5))).tolist()), "not a map"
     if kind == 2:
         return msgpack.packb({**base, "v": int(rng.choice([0, 2, 99, -1]))}), "unknown schema version"
-    if kind == 3:
-        gone = str(rng.choice(list(fields)))
+    if kind == 3:  # (a field added later, with a default, may be missing: an older sender's message)
+        gone = str(rng.choice([name for name in fields if name not in getattr(cls, "DEFAULTS", {})]))
         return msgpack.packb({k: v for k, v in base.items() if k != gone}), "a field missing"
     if kind == 4:
         name = str(rng.choice(list(fields)))
@@ -147,19 +147,21 @@ def hostile(cls, rng: np.random.Generator, epoch: str, seq: int) -> tuple[bytes,
 
 def cases(rng: np.random.Generator, keys, robot, n: int, epoch: str, seq: int) -> list[Case]:
     """`n` cases over every key a service reads, each with who must count it."""
-    targets = [  # (key, class, who counts a malformed one, who counts a hostile one or None)
-        (keys.input, Input, ("arbitrator", "learner", "mirror"), ("arbitrator",)),
-        (keys.proposal("teacher", "fuzz"), Proposal, ("arbitrator",), None),
-        (keys.proposal("learner", "fuzz"), Proposal, ("arbitrator",), None),
+    # (key, class, who counts a malformed one, who counts a hostile one or None); the recorder reads every key
+    # the bus publishes on, and checks what it records as strictly as the services that read it
+    targets = [
+        (keys.input, Input, ("arbitrator", "learner", "mirror", "recorder"), ("arbitrator",)),
+        (keys.proposal("teacher", "fuzz"), Proposal, ("arbitrator", "recorder"), None),
+        (keys.proposal("learner", "fuzz"), Proposal, ("arbitrator", "recorder"), None),
         (f"{keys.prefix}/proposal/fuzz", Proposal, ("arbitrator",), None),  # not a proposal key at all
-        (keys.command, Command, ("aibo",), ("aibo",)),
-        (keys.train, TrainingPair, ("learner",), ("learner",)),
-        (keys.teach, TeachSwitch, ("mirror",), None),
-        (keys.select_learner, SelectLearner, ("arbitrator",), None),
-        (robot.handle, Handle, ("aibo",), None),
-        (robot.arena, ArenaReset, ("aibo",), ("aibo",)),
-        (robot.clock, Clock, ("handler",), None),
-        (keys.status("fuzz", "fuzz"), Status, ("supervisor",), None),  # in ps: "refused" "status"
+        (keys.command, Command, ("aibo", "recorder"), ("aibo",)),
+        (keys.train, TrainingPair, ("learner", "recorder"), ("learner",)),
+        (keys.teach, TeachSwitch, ("mirror", "recorder"), None),
+        (keys.select_learner, SelectLearner, ("arbitrator", "recorder"), None),
+        (robot.handle, Handle, ("aibo", "recorder"), None),
+        (robot.arena, ArenaReset, ("aibo", "recorder"), ("aibo", "recorder")),  # (the schema's own check)
+        (robot.clock, Clock, ("handler", "recorder"), None),
+        (keys.status("fuzz", "fuzz"), Status, ("supervisor", "recorder"), None),  # in ps: "refused" "status"
     ]
     out = []
     for i in range(n):

@@ -1,0 +1,141 @@
+"""Record a mirroring run and a ball-seeking run with the recorder, replay them, compare learners (issue 14).
+
+    .venv/bin/python benchmarks/replay.py [--quick]
+
+Mirroring: the Aibo, the handler, the mirror teacher, a live LWPR learner, under the supervisor; taught,
+then the student alone; last the recorder is SIGKILLed and the seconds its file lost before the kill are
+measured. Ball seeking: the demo's protocol over the bus (camera at 15 Hz recorded), the wired GP learner.
+Each recording is replayed with three learners, answering each input on the live learner's schedule
+and measured against the teacher program run on every input (the paper's Figure 5 measure). The
+replay speed-up is the recorded duration over the time a replay with LWPR takes (relearning every
+pair, answering every input; its kernels compiled before the clock starts, as the live learner's
+are). Last line: one JSON object (replay_speedup, recorder_mb_per_min, lost_after_sigkill_s,
+final_error_<run>_<learner>, ...).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: services.*, tests.harness
+import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import os  # noqa: E402
+import signal  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from services.demo.ballseek import run_ballseek_live  # noqa: E402
+from services.demo.mirroring import start_mirroring  # noqa: E402
+from services.learners import compile_kernels, make_learner  # noqa: E402
+from services.recording.cli import compare  # noqa: E402
+from services.recording.compare import table  # noqa: E402
+from services.recording.reader import iter_samples, run_files  # noqa: E402
+from services.recording.replay import replay, schedule  # noqa: E402
+from services.recording.runs import load_run  # noqa: E402
+from services.teachers import make_teacher  # noqa: E402
+from services.waiting import poll  # noqa: E402
+from tests.harness import free_port  # noqa: E402
+
+LEARNERS = {"mirroring": ("lwpr", "sogp", "knn"), "ballseek": ("lwpr", "gp", "knn")}
+TEACHERS = {"mirroring": "mirror", "ballseek": "ballseek"}
+
+
+def record_mirroring(work: Path, teach_s: float, student_s: float) -> tuple[Path, float]:
+    """A recorded mirroring run (live LWPR) and the seconds its recorder's file lost to a SIGKILL."""
+    run = start_mirroring(work, f"tcp/127.0.0.1:{free_port()}", learner="lwpr")
+    try:
+        run.teach(True)
+        run.run_ticks(int(teach_s * 30))
+        run.teach(False)
+        run.run_ticks(int(student_s * 30))
+        pid = run.ps()["recorder"]["pid"]
+        os.kill(pid, signal.SIGKILL)
+        killed_ns = time.time_ns()
+        restarted = poll(lambda: (r := run.ps().get("recorder")) and r["pid"] != pid and r["state"] == "ready", 30, 0.2)
+        if not restarted:
+            raise RuntimeError("the recorder did not come back after its SIGKILL")
+    finally:
+        run.close()
+    [folder] = list((work / "recordings").iterdir())
+    killed_file = run_files(folder)[0]  # repaired by the restarted recorder
+    last_ns = max(s.log_ns for s in iter_samples(killed_file))
+    return folder, (killed_ns - last_ns) / 1e9
+
+
+def record_ballseek(work: Path, teach_s: float, episodes: int) -> Path:
+    run_ballseek_live(work, f"tcp/127.0.0.1:{free_port()}", teach_seconds=teach_s, episodes=episodes,
+                      orange_episodes=0, log=lambda line: print(line, file=sys.stderr))
+    [folder] = list((work / "recordings").iterdir())
+    return folder
+
+
+def size_figures(folder: Path) -> dict:
+    files = run_files(folder)
+    times = [s.log_ns for s in iter_samples(folder)]
+    minutes = (max(times) - min(times)) / 60e9
+    mb = sum(p.stat().st_size for p in files) / 1e6
+    return {"files": len(files), "messages": len(times), "mb": mb, "minutes": minutes, "mb_per_min": mb / minutes}
+
+
+def replay_figures(name: str, folder: Path) -> dict:
+    run = load_run(folder)
+    live = next(iter(run.live))
+    plan = schedule(run, live)
+    compile_kernels(make_learner("lwpr", run.spaces.input.dims, run.spaces.output.dims))  # before the clock
+    start = time.perf_counter()
+    lwpr = replay(run, "lwpr", 0, plan)
+    took = time.perf_counter() - start
+    answered = np.searchsorted(run.ticks, run.live[live].ticks).clip(0, len(run.ticks) - 1)
+    reproduced = float(np.max(np.abs(lwpr.y[answered] - run.live[live].y))) if name == "mirroring" else None
+    teacher = make_teacher(TEACHERS[name], run.spaces)
+    rows = compare(run, list(LEARNERS[name]), teacher=teacher, live=live)
+    print(f"\n{name}: {len(run.ticks)} inputs over {run.duration_s:.0f} s, {len(run.pair_ticks)} pairs; "
+          f"reference: teacher {TEACHERS[name]} on every input")
+    print(table(rows, 0.1))
+    out = {"speedup": run.duration_s / took, "duration_s": run.duration_s, "replay_s": took,
+           "final": {r.spec: r.final_error for r in rows}, "student": {r.spec: r.student_error for r in rows}}
+    if reproduced is not None:
+        out["reproduced_max_abs"] = reproduced
+    return out
+
+
+def main(quick: bool) -> dict:
+    began = time.monotonic()
+    teach_s, student_s, episodes = (20.0, 10.0, 1) if quick else (60.0, 30.0, 3)
+    with tempfile.TemporaryDirectory(prefix="dogged-replay-") as tmp:
+        mirroring, lost_s = record_mirroring(Path(tmp) / "mirroring", teach_s, student_s)
+        ballseek = record_ballseek(Path(tmp) / "ballseek", 30.0 if quick else 60.0, episodes)
+        sizes = {"mirroring": size_figures(mirroring), "ballseek": size_figures(ballseek)}
+        replays = {name: replay_figures(name, folder) for name, folder in (("mirroring", mirroring),
+                                                                            ("ballseek", ballseek))}
+    print(f"\n{'recording':<12}{'minutes':>9}{'messages':>10}{'files':>7}{'MB':>8}{'MB/min':>8}"
+          f"{'replay s':>10}{'speed-up (LWPR)':>17}")
+    for name, s in sizes.items():
+        r = replays[name]
+        print(f"{name:<12}{s['minutes']:>9.2f}{s['messages']:>10}{s['files']:>7}{s['mb']:>8.1f}{s['mb_per_min']:>8.2f}"
+              f"{r['replay_s']:>10.2f}{r['speedup']:>16.0f}x")
+    print(f"SIGKILL of the recorder: its file lost the last {lost_s:.2f} s before the kill; replayed LWPR "
+          f"matches the live one to {replays['mirroring']['reproduced_max_abs']:.1e} on every answer")
+    figures = {"replay_speedup": round(min(r["speedup"] for r in replays.values()), 1),
+               "replay_speedup_mirroring": round(replays["mirroring"]["speedup"], 1),
+               "replay_speedup_ballseek": round(replays["ballseek"]["speedup"], 1),
+               "recorder_mb_per_min": round(sizes["ballseek"]["mb_per_min"], 2),
+               "recorder_mb_per_min_mirroring": round(sizes["mirroring"]["mb_per_min"], 2),
+               "lost_after_sigkill_s": round(lost_s, 3),
+               "replay_reproduced_max_abs": replays["mirroring"]["reproduced_max_abs"],
+               "wall_s": round(time.monotonic() - began, 1)}
+    for name, r in replays.items():
+        for spec, value in r["final"].items():
+            figures[f"final_error_{name}_{spec.replace(' ', '_')}"] = None if np.isnan(value) else round(value, 4)
+    return figures
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="shorter runs (a few minutes)")
+    print(json.dumps(main(parser.parse_args().quick)))
