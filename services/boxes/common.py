@@ -15,11 +15,13 @@ def fetch_spaces(session: zenoh.Session, keys: InstanceKeys, stop, log: logging.
     Every answer to one query must agree: spaces that a second answerer contradicts are not trusted
     (without access control anyone may answer; with it only the platform can), and the query is
     asked again."""
-    start, warned = time.monotonic(), False
+    start, warned, wait = time.monotonic(), False, 0.2
     while not stop:
         answers = []
-        # every queryable, every answer: two answerers must both be heard to be compared
-        for reply in session.get(keys.spaces, timeout=1.0, target=zenoh.QueryTarget.ALL,
+        # every queryable, every answer: two answerers must both be heard to be compared. A session just
+        # opened may not hear the end of its first query until the timeout (its links to the other peers
+        # are still being made), so the wait starts short and grows (0.2 s, 0.4 s, ... 1.6 s: a radio link)
+        for reply in session.get(keys.spaces, timeout=wait, target=zenoh.QueryTarget.ALL,
                                  consolidation=zenoh.ConsolidationMode.NONE):
             if reply.ok is None:
                 continue
@@ -35,6 +37,7 @@ def fetch_spaces(session: zenoh.Session, keys: InstanceKeys, stop, log: logging.
                       "; ".join(shapes) if len(shapes) > 1 else "same sizes, other bounds or names")
         if timeout is not None and time.monotonic() - start > timeout:
             return None
+        wait = min(2 * wait, 1.6)
         if not warned and time.monotonic() - start > 3:
             log.info("waiting for the platform to answer on %s", keys.spaces)
             warned = True

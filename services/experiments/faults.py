@@ -129,6 +129,12 @@ class BusRecord:
         return max((after - max(before, start) for before, after in zip(times, times[1:]) if after > start),
                    default=0.0)
 
+    def flowing(self, since: float) -> bool:
+        """Whether commands flow (one in the last GAP / 2) at least 2 * GAP after `since` (a gap they began
+        after a fault has shown by then)."""
+        now = time.monotonic()
+        return now - since >= 2 * GAP and bool(self.command_times) and now - self.command_times[-1] < GAP / 2
+
     def close(self) -> None:
         for held in self._held:
             held.undeclare()
@@ -166,6 +172,9 @@ def strike(run: LiveRun, record: BusRecord, service: str, how: str, deficit: tup
         os.kill(pid, signal.SIGCONT)
     else:
         os.kill(pid, signal.SIGKILL)
+    # first the commands, from the bus record in this process; only then `dogged ps`, whose processes (half a
+    # second of CPU each, four a second) would otherwise slow the very restart being measured
+    poll(lambda: record.flowing(start), 20.0, 0.02)
     back = wait_restarted(run, service)
     time.sleep(1.5)  # steady flow after
     still_teaching = teaching(run, teacher)
