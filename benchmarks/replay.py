@@ -104,12 +104,13 @@ def replay_figures(name: str, folder: Path) -> dict:
     return out
 
 
-def main(quick: bool) -> dict:
+def main(quick: bool, out: str | None = None) -> dict:
     began = time.monotonic()
     teach_s, student_s, episodes = (20.0, 10.0, 1) if quick else (60.0, 30.0, 3)
     with tempfile.TemporaryDirectory(prefix="dogged-replay-") as tmp:
-        mirroring, lost_s = record_mirroring(Path(tmp) / "mirroring", teach_s, student_s)
-        ballseek = record_ballseek(Path(tmp) / "ballseek", 30.0 if quick else 60.0, episodes)
+        work = Path(out) if out else Path(tmp)
+        mirroring, lost_s = record_mirroring(work / "mirroring", teach_s, student_s)
+        ballseek = record_ballseek(work / "ballseek", 30.0 if quick else 60.0, episodes)
         sizes = {"mirroring": size_figures(mirroring), "ballseek": size_figures(ballseek)}
         replays = {name: replay_figures(name, folder) for name, folder in (("mirroring", mirroring),
                                                                             ("ballseek", ballseek))}
@@ -138,4 +139,6 @@ def main(quick: bool) -> dict:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter runs (a few minutes)")
-    print(json.dumps(main(parser.parse_args().quick)))
+    parser.add_argument("--out", default=None, help="keep the runs (and their recordings) in this folder")
+    args = parser.parse_args()
+    print(json.dumps(main(args.quick, args.out)))
