@@ -90,8 +90,8 @@ def replay_figures(name: str, folder: Path) -> dict:
     start = time.perf_counter()
     lwpr = replay(run, "lwpr", 0, plan)
     took = time.perf_counter() - start
-    answered = np.searchsorted(run.ticks, run.live[live].ticks).clip(0, len(run.ticks) - 1)
-    reproduced = float(np.max(np.abs(lwpr.y[answered] - run.live[live].y))) if name == "mirroring" else None
+    inputs, answers = run.answered(live)
+    reproduced = float(np.max(np.abs(lwpr.y[inputs] - run.live[live].y[answers]))) if name == "mirroring" else None
     teacher = make_teacher(TEACHERS[name], run.spaces)
     rows = compare(run, list(LEARNERS[name]), teacher=teacher, live=live)
     print(f"\n{name}: {len(run.ticks)} inputs over {run.duration_s:.0f} s, {len(run.pair_ticks)} pairs; "

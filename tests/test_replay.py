@@ -91,3 +91,14 @@ def test_a_folder_without_recordings_is_a_clear_error(tmp_path):
     out = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(tmp_path)], cwd=REPO,
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and "no .mcap files" in out.stderr, out.stderr
+
+
+def test_an_answer_whose_input_was_not_recorded_is_left_out(run):
+    """(a restarted recorder can come in between an input and the learner's answer to it)"""
+    recorded = load_run(run)
+    keep = recorded.ticks != 100
+    recorded.ticks, recorded.t, recorded.x, recorded.modes = (recorded.ticks[keep], recorded.t[keep],
+                                                              recorded.x[keep], recorded.modes[keep])
+    inputs, answers = recorded.answered("l")
+    assert len(answers) == TICKS - 1 and 99 not in answers
+    assert np.array_equal(recorded.ticks[inputs], recorded.live["l"].ticks[answers])

@@ -21,9 +21,8 @@ def live_rows(run: RecordedRun) -> list[Replayed]:
     rows = []
     for name, answers in sorted(run.live.items()):
         y, confidence = np.full((len(run.ticks), run.spaces.output.dims), np.nan), np.zeros(len(run.ticks))
-        where = np.searchsorted(run.ticks, answers.ticks).clip(0, len(run.ticks) - 1)
-        ok = run.ticks[where] == answers.ticks
-        y[where[ok]], confidence[where[ok]] = answers.y[ok], answers.confidence[ok]
+        inputs, answered = run.answered(name)
+        y[inputs], confidence[inputs] = answers.y[answered], answers.confidence[answered]
         rows.append(Replayed(f"live {name}", y, confidence, 0.0, 0.0, 0, 0))
     return rows
 

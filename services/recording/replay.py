@@ -41,13 +41,13 @@ def schedule(run: RecordedRun, live: str | None = None) -> np.ndarray:
     or, given a live learner, what it had learned when it answered that tick (carried over the ticks it
     did not answer; before its first answer, no more than it had then)."""
     counts = np.searchsorted(np.sort(run.pair_ticks), run.ticks, side="left")  # pairs of earlier ticks
-    answers = run.live.get(live) if live else None
-    if answers is not None and len(answers.ticks):
-        where = np.searchsorted(run.ticks, answers.ticks).clip(0, len(run.ticks) - 1)
-        ok = (run.ticks[where] == answers.ticks) & (answers.learned >= 0)
+    if live in run.live:
+        inputs, answers = run.answered(live)
+        learned = run.live[live].learned[answers]
+        ok = learned >= 0
         if ok.any():
             known = np.full(len(run.ticks), -1)
-            known[where[ok]] = np.minimum(answers.learned[ok], len(run.pair_ticks))
+            known[inputs[ok]] = np.minimum(learned[ok], len(run.pair_ticks))
             last = np.maximum.accumulate(np.where(known >= 0, np.arange(len(known)), -1))
             first = known[last[last >= 0][0]]
             counts = np.where(last >= 0, known[last.clip(0)], np.minimum(counts, first))

@@ -36,6 +36,14 @@ class RecordedRun:
     rejected: int = 0        # recorded samples that did not decode (none from this recorder)
     truncated: list = field(default_factory=list)
 
+    def answered(self, live: str) -> tuple[np.ndarray, np.ndarray]:
+        """(indexes into the recorded inputs, indexes into live learner `live`'s answers) of the ticks both
+        hold: an answer whose input was not recorded (a restarted recorder came in after it) is left out."""
+        answers = self.live[live]
+        where = np.searchsorted(self.ticks, answers.ticks).clip(0, max(len(self.ticks) - 1, 0))
+        both = np.flatnonzero(self.ticks[where] == answers.ticks) if len(self.ticks) else np.array([], int)
+        return where[both], both
+
     @property
     def duration_s(self) -> float:
         return float(self.t[-1] - self.t[0]) if len(self.t) > 1 else 0.0
