@@ -11,7 +11,7 @@ from services.experiments.evaluate import error_over_time, half_range, moving_av
 from services.recording.replay import Replayed
 from services.recording.runs import RecordedRun
 
-SMOOTH_S = 1.0  # the error curve's trailing mean, and what must stay under the threshold
+SMOOTH_S = 1.0  # the error curve's trailing mean (and teaching it takes before "reached" can count)
 
 
 @dataclass
@@ -19,7 +19,8 @@ class Figures:
     spec: str
     final_error: float          # mean over the last tenth of the inputs with a reference
     student_error: float        # mean over the ticks the student drove (NaN: no reference there)
-    reach_s: float              # first time the trailing mean fell under the threshold (NaN: never)
+    reach_s: float              # first time, SMOOTH_S after teaching began, the trailing mean fell under the
+                                # threshold (NaN: never); before, an untaught model may be right by chance
     updates_per_s: float
     size: int
     wrong_confidence: float     # mean confidence where the error exceeded the threshold (NaN: never wrong)
@@ -51,7 +52,9 @@ def figures(run: RecordedRun, result: Replayed, ref: np.ndarray, threshold: floa
     final = float(np.mean(error[known[-max(1, len(known) // 10):]])) if len(known) else np.nan
     student = (run.modes != "teacher") & (run.modes != "") & np.isfinite(error)
     smooth = moving_average(error[known], smoothing_window(run)) if len(known) else np.array([])
-    under = np.flatnonzero(smooth < threshold)
+    taught = np.flatnonzero(run.modes == "teacher")
+    begins = (run.t[taught[0]] if len(taught) else run.t[0]) + SMOOTH_S if len(run.t) else 0.0
+    under = np.flatnonzero((smooth < threshold) & (run.t[known] >= begins))
     wrong = np.isfinite(error) & (error > threshold)
     return Figures(result.spec, final, float(np.mean(error[student])) if student.any() else np.nan,
                    float(run.t[known[under[0]]]) if len(under) else np.nan,
