@@ -101,6 +101,14 @@ def test_files_rotate_by_size_and_continue_after_the_ones_there(tmp_path):
     assert again.next_path().name.startswith(f"recorder-{len(files):04d}-")
 
 
+def test_files_rotate_by_age(tmp_path):
+    rec = record(tmp_path, n=5, upkeep=True, rotate_s=0.0)  # every upkeep finds the file old enough
+    rec.writer.close()
+    files = run_files(tmp_path)
+    assert len(files) == 5 * 3 + 3 and all(is_finished(p) for p in files)  # 5 ticks: 18 samples, a file each
+    assert sum(1 for _ in iter_samples(tmp_path)) == 18
+
+
 def test_a_cut_file_reads_up_to_its_last_chunk_and_is_repaired(tmp_path):
     rec = record(tmp_path, n=100, flush_s=0.0)
     rec.writer.add_metadata("spaces dl/main", {"spaces": json.dumps({"input": 2})})
