@@ -5,7 +5,8 @@ learner, the arbitrator. The floor is a raw UDP round trip between two processes
 the same run. Everything is measured twice: as deployed by default, then in low-latency mode
 (a PM QoS request keeping CPUs out of deep idle, `low_latency = true` in a profile); keys of the
 second carry `_low_latency`; the 100 Hz loop is also measured with a recorder writing every sample
-(`_recorded`: every profile runs one). Prints a table; the last line is one JSON object of the figures.
+(`_recorded`: every profile runs one), and split into hops as an observer on the bus sees them
+(`hop_us_*`, benchmarks/lib/hops.py). Prints tables; the last line is one JSON object of the figures.
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ import time
 
 import numpy as np
 
+from benchmarks.lib.hops import DESCRIBED, HOPS, HopObserver  # noqa: E402
 from benchmarks.lib.udp_echo import round_trips  # noqa: E402
 from services.realtime import hold_low_latency  # noqa: E402
 from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
@@ -53,12 +55,18 @@ def run_platform(router: str, rate: float, ticks: int, work: Path, env: dict | N
     return np.load(lat) * 1e3, json.loads(summary.read_text())
 
 
-def measure(router: str, work: Path, quick: bool, label: str) -> tuple[list, dict]:
+def measure(router: str, work: Path, quick: bool, label: str, observer: HopObserver) -> tuple[list, dict]:
     rows, figures = [], {}
     for rate, seconds in ((100, 10 if quick else 30), (1000, 5 if quick else 20)):
         ms, counts = run_platform(router, rate, int(rate * seconds), work)
         ms = ms[len(ms) // 20:]  # the first 5% include connection set-up
         rows.append((f"{label} {rate} Hz", len(ms), np.percentile(ms, 50), np.percentile(ms, 99), counts["unanswered"]))
+    observer.start()  # the hops in a run of their own: the observer is one more subscriber on the tick path
+    ms, counts = run_platform(router, 100, 100 * (10 if quick else 30), work)
+    ms = ms[len(ms) // 20:]
+    figures |= {f"hop_us_{hop}": us for hop, us in observer.hops_us(ms).items()}
+    rows.append((f"{label} observed 100 Hz", len(ms), np.percentile(ms, 50), np.percentile(ms, 99),
+                 counts["unanswered"]))
     figures["tick_p50_ms"], figures["tick_p99_ms"] = round(rows[0][2], 3), round(rows[0][3], 3)
     figures["tick_p50_ms_1khz"], figures["tick_p99_ms_1khz"] = round(rows[1][2], 3), round(rows[1][3], 3)
     held = 0
@@ -94,19 +102,20 @@ def main(quick: bool) -> dict:
     boxes += [dogged("run", "demonstrator", "--teacher", "sine", "--connect", router, log=work / "teacher.log"),
               dogged("run", "learner", "--learner", "lwpr", "--connect", router, log=work / "learner.log"),
               dogged("run", "arbitrator", "--connect", router, log=work / "arbitrator.log")]
-    probe = Probe(router)
+    probe, observer = Probe(router), HopObserver(router)
     try:
         time.sleep(3)  # services up, kernels compiled
-        rows, figures = measure(router, work, quick, "default")
+        rows, figures = measure(router, work, quick, "default", observer)
         rows.append(recorded_row(router, work, quick))  # what a profile's recorder costs the tick
         figures["tick_p50_ms_recorded"], figures["tick_p99_ms_recorded"] = round(rows[-1][2], 3), round(rows[-1][3], 3)
         low = hold_low_latency()  # system-wide while this process lives: measured second
         if low:
-            low_rows, low_figures = measure(router, work, quick, "low-lat")
+            low_rows, low_figures = measure(router, work, quick, "low-lat", observer)
             rows += low_rows
             figures |= {f"{k}_low_latency": v for k, v in low_figures.items()}
     finally:
         probe.close()
+        observer.close()
         stop(*reversed(boxes))
     figures["udp_rtt_ms"] = round(float(np.percentile(udp, 50)), 4)
     figures["udp_rtt_p99_ms"] = round(float(np.percentile(udp, 99)), 4)
@@ -116,6 +125,10 @@ def main(quick: bool) -> dict:
           f"{0:>7}{1.0:>10.1f}")
     for name, n, p50, p99, lost in rows:
         print(f"{name:<22}{n:>8}{p50:>10.3f}{p99:>10.3f}{lost:>7}{p50 / figures['udp_rtt_ms']:>10.1f}")
+    print(f"\n{'hop (100 Hz, median)':<58}{'default us':>12}{'low-lat us':>12}")
+    for hop in HOPS:
+        low_us = figures.get(f"hop_us_{hop}_low_latency", float("nan"))
+        print(f"{DESCRIBED[hop]:<58}{figures[f'hop_us_{hop}']:>12.1f}{low_us:>12.1f}")
     print(f"highest rate held with no tick lost: {figures['max_rate_hz']} Hz "
           f"(low-latency mode: {figures.get('max_rate_hz_low_latency', 'n/a')} Hz); logs in {work}")
     return figures
