@@ -177,3 +177,14 @@ def test_every_profile_records_unless_told_not_to(tmp_path):
     path.write_text(path.read_text().replace("record = false", "recrod = false"))
     with pytest.raises(ProfileError, match="profile.recrod: unknown field"):
         load_profile(path)
+
+
+def test_a_contradicting_spaces_answer_leaves_lengths_unchecked(tmp_path):
+    """A stranger answering the spaces query with other sizes cannot make the run go unrecorded."""
+    rec = record(tmp_path, n=1)
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(PointPlatform(dims=2).spaces.to_dict())))
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(PointPlatform(dims=3).spaces.to_dict())))
+    rec.on_sample("dl/main/input", encode(Input(2, 1.0, np.zeros(4))), 1)
+    rec.on_sample("dl/main/input", encode(Input(3, 1.0, np.zeros(6))), 2)
+    rec.writer.close()
+    assert rec.rejects.counts == {"dl/main/spaces": 1} and rec.counts["recorded"] == 6

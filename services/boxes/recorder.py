@@ -27,7 +27,6 @@ from services.recording.reader import is_finished, repair
 from services.recording.writer import RunWriter, file_index
 
 RETRY_S = 5.0  # after a write failed, how long before a new file is tried
-STAMPED = ("stamp",)  # payload fields that hold the sender's wall clock: the MCAP publish time
 
 
 class Recording:
@@ -66,19 +65,25 @@ class Recording:
         self.counts["recorded"] += 1
 
     def on_spaces(self, key: str, raw: bytes) -> None:
+        """The first answer is recorded and its vector lengths checked from then on; an answer that
+        contradicts it (without access control anyone may answer) makes the lengths unchecked again, as
+        fetch_spaces trusts no answer another contradicts: a stranger cannot make the run go unrecorded."""
         prefix = key.rsplit("/", 1)[0]
         name = f"spaces {prefix}"
-        if name in self.writer.metadata:
-            return
+        known = self.writer.metadata.get(name)
         try:
             spaces = decode(SpacesMessage, raw, key).spaces
             parsed = Spaces.from_dict(spaces)
         except (SchemaError, KeyError, TypeError, ValueError) as err:
-            self.rejects(key, err)
+            if known is None:  # (once known, an answer that is no spaces changes nothing)
+                self.rejects(key, err)
             return
-        self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
-        if prefix.startswith("dl/"):
-            self.dims[prefix] = {"x": parsed.input.dims, "y": parsed.output.dims}
+        if known is None:
+            self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+            if prefix.startswith("dl/"):
+                self.dims[prefix] = {"x": parsed.input.dims, "y": parsed.output.dims}
+        elif known["spaces"] != json.dumps(spaces) and self.dims.pop(prefix, None) is not None:
+            self.rejects(key, ValueError(f"two different answers on {key}: vector lengths no longer checked"))
 
     def upkeep(self) -> None:
         try:

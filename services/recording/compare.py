@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from services.experiments.evaluate import error_over_time, half_range, moving_average, save_figure, teaching_bands
+from services.experiments.evaluate import (error_over_time, half_range, moving_average, save_figure, teacher_outputs,
+                                          teaching_bands)
 from services.recording.replay import Replayed
 from services.recording.runs import RecordedRun
 
@@ -36,7 +37,6 @@ def reference(run: RecordedRun, teacher=None) -> np.ndarray:
     outputs where it spoke (NaN elsewhere)."""
     if teacher is None:
         return run.taught_at_ticks()
-    from services.experiments.evaluate import teacher_outputs
     return teacher_outputs(teacher, run.x, run.spaces.output.dims)
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mcap.exceptions import McapError
+from mcap.reader import make_reader
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.well_known import MessageEncoding
@@ -85,9 +86,13 @@ def read_metadata(run: str | Path) -> dict[str, dict[str, str]]:
     """The run's metadata by name (the first file that has a name wins): spaces, the run's description."""
     found: dict[str, dict[str, str]] = {}
     for path in run_files(run):
-        for record in _records(path, []):
-            if isinstance(record, Metadata):
-                found.setdefault(record.name, dict(record.metadata))
+        if is_finished(path):  # the summary indexes it: no chunk is read
+            with open(path, "rb") as f:
+                records = list(make_reader(f).iter_metadata())
+        else:
+            records = [r for r in _records(path, []) if isinstance(r, Metadata)]
+        for record in records:
+            found.setdefault(record.name, dict(record.metadata))
     return found
 
 
