@@ -94,7 +94,9 @@ def test_a_recorded_run_reads_back_counts_match_and_replay_reproduces_the_learne
 
     recorded = load_run(run)
     live = recorded.live["learner"]
-    assert len(live.ticks) > 700 and (recorded.modes == "student").sum() >= 300
+    # the learner answers from its first answer on (it starts once its kernels are compiled: tick 34 to 133 seen)
+    assert len(live.ticks) >= 0.95 * (recorded.ticks[-1] - live.ticks[0] + 1) and len(live.ticks) > 300
+    assert (recorded.modes == "student").sum() >= 300
     result = replay(recorded, "lwpr", seed=0, plan=schedule(recorded, "learner"))
     inputs, answers = recorded.answered("learner")
     assert len(answers) == len(live.ticks)  # (no recorder restart here: every answered input recorded)
