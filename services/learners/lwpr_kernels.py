@@ -80,8 +80,9 @@ def update_output(rfs, nreg, n_rfs, k, x, y, hp, work):
             nreg[k, count] = update_rf(st, n, min(n, int(hp[HP_INIT_REG])), x, y, 1.0, hp, work)
             n_rfs[k] = count + 1
     elif w_sec > hp[HP_W_PRUNE]:
-        # two fields claim the same data: drop the narrower one
-        victim = i_max if trace_d(rfs[k, i_max], n) > trace_d(rfs[k, i_sec], n) else i_sec
+        # two fields claim the same data: drop the wider one, as the reference library does (one that
+        # widened over its neighbour's data averages its detail away)
+        victim = i_max if trace_d(rfs[k, i_max], n) < trace_d(rfs[k, i_sec], n) else i_sec
         rfs[k, victim] = rfs[k, count - 1]
         nreg[k, victim] = nreg[k, count - 1]
         n_rfs[k] = count - 1
