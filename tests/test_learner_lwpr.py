@@ -160,3 +160,19 @@ def test_untuned_cross_is_learned():
 
     errors = [tutorial(draw, {})[0] for draw in range(5)]
     assert np.median(errors) < 0.1, errors
+
+
+def test_a_broken_answer_is_replaced_not_clipped():
+    """predict_one clips to the taught range and checks its answer inside the kernel (numpy no longer
+    does): a NaN the model gives must still come out as the taught middle with confidence 0."""
+    from services.learners import lwpr_layout
+
+    model = make_learner("lwpr", 2, 1, init_D=25.0)
+    xs, ys = cross_training(300)
+    model.learn_many(xs, ys)
+    n = 2
+    theta = lwpr_layout.N_SCALARS + lwpr_layout.N_VECTORS * n + lwpr_layout.N_MATRICES * n * n
+    model._rfs[0, :, theta:theta + n + 1] = np.nan  # every field's exact fit, which gives its answer
+    answer = model.predict_one(xs[0])
+    assert answer.confidence == 0.0 and model.n_broken == 1
+    assert np.allclose(answer.y, (ys.min() + ys.max()) / 2)

@@ -85,7 +85,15 @@ class TaughtRange:
         ys = ys.reshape(-1, len(self.low))
         if len(ys) == 0:
             return
-        self.low, self.high = np.minimum(self.low, ys.min(0)), np.maximum(self.high, ys.max(0))
+        low, high = (ys[0], ys[0]) if len(ys) == 1 else (ys.min(0), ys.max(0))
+        # a value within the range changes nothing: the common case costs two comparisons
+        if not ((low < self.low).any() or (high > self.high).any()):
+            return
+        self.low, self.high = np.minimum(self.low, low), np.maximum(self.high, high)
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Floor and ceiling from low and high (after a compiled kernel widened those in place)."""
         span = self.high - self.low
         self.floor, self.ceiling = self.low - self.MARGIN * span, self.high + self.MARGIN * span
 

@@ -133,14 +133,15 @@ class LWPR(Learner):
         if self._input_scale is not None:
             with np.errstate(over="ignore"):  # an overflow is refused below, with its reason
                 x = x * self._input_scale
-        kernels = _loaded_kernels or _kernels()
-        status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
+        kernels, taught = _loaded_kernels or _kernels(), self._taught
+        status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, taught.low, taught.high)
         while status == 1:
             self._grow()
-            status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y)
+            status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, taught.low, taught.high)
         if status < 0:
             self._reject(status, x, y)
-        self._taught.learn(y)
+        if status == 2:  # the kernel widened the taught range
+            taught.refresh()
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
@@ -190,14 +191,14 @@ class LWPR(Learner):
             as_vector(x, self.n_in, "inputs")
         if self._input_scale is not None:
             x = x * self._input_scale
-        kernels = _loaded_kernels or _kernels()
+        kernels, taught = _loaded_kernels or _kernels(), self._taught
         y, interval = np.empty(self.n_out), np.empty(self.n_out)
-        confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval)
-        if confidence < 0.0:  # the kernel found a non-finite input
+        confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval,
+                                         taught.floor, taught.ceiling)
+        if confidence == -1.0:  # the kernel found a non-finite input
             as_vector(x, self.n_in, "inputs")
-        np.clip(y, self._taught.floor, self._taught.ceiling, out=y)
-        if not np.isfinite(y).all():
-            return self._sane_one(y, confidence, interval)
+        if confidence == -2.0:  # an answer the model could not give
+            return self._sane_one(y, 0.0, interval)
         # tuple.__new__ skips NamedTuple's Python-level __new__: 0.2 µs of a 2.5 µs call
         return _new_tuple(Prediction, (y, confidence, interval))
 
@@ -227,6 +228,9 @@ class LWPR(Learner):
     def __setstate__(self, state: dict) -> None:
         super().__setstate__(state)
         self._hp = self._hyper_parameter_vector()  # the kernels' layout of this version
+        taught = self._taught  # learn_one's kernel widens its range in place
+        taught.low, taught.high = kernel_ready(taught.low).copy(), kernel_ready(taught.high).copy()
+        taught.refresh()  # writeable floor and ceiling too: a read-only array would compile the kernel again
 
 
 register("lwpr", LWPR)

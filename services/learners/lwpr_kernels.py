@@ -110,7 +110,9 @@ def needs_room(rfs, n_rfs, hp):
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
-def learn_one(rfs, nreg, n_rfs, hp, x, y):
+def learn_one(rfs, nreg, n_rfs, hp, x, y, low, high):
+    """Learn (x, y); low and high, the taught range per output, widen to y in place (status 2
+    when they did, so the caller refreshes what it derives from them)."""
     status = check_sample(x, y)
     if status != 0:
         return status
@@ -119,7 +121,11 @@ def learn_one(rfs, nreg, n_rfs, hp, x, y):
     work = np.empty(7 * x.shape[0] + 2)
     for k in range(y.shape[0]):
         update_output(rfs, nreg, n_rfs, k, x, y[k], hp, work)
-    return 0
+    for k in range(y.shape[0]):
+        if y[k] < low[k] or y[k] > high[k]:
+            status = 2
+            low[k], high[k] = min(low[k], y[k]), max(high[k], y[k])
+    return status
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
@@ -268,17 +274,21 @@ def predict_many(rfs, nreg, n_rfs, hp, xs):
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
-def predict_one(rfs, nreg, n_rfs, hp, x, y, intervals):
-    """Like predict_many for one input, filling the caller's y and intervals (returning
-    arrays from numba costs more than the prediction); returns the confidence, or -1
-    for a non-finite input (then nothing is computed)."""
+def predict_one(rfs, nreg, n_rfs, hp, x, y, intervals, floor, ceiling):
+    """Like predict_many for one input, filling the caller's y (held within floor and
+    ceiling) and intervals: returning arrays from numba, or clipping with numpy, costs more
+    than the prediction. Returns the confidence; -1 for a non-finite input (then nothing is
+    computed), -2 when an answer is not finite."""
     for i in range(x.shape[0]):
         if not math.isfinite(x[i]):
             return -1.0
     xres = np.empty(x.shape[0])
     conf = 1.0
+    finite = True
     for k in range(n_rfs.shape[0]):
-        y[k], w_max, intervals[k] = predict_output(rfs, nreg, n_rfs, k, x, hp, xres)
+        value, w_max, intervals[k] = predict_output(rfs, nreg, n_rfs, k, x, hp, xres)
+        finite = finite and math.isfinite(value)  # before clipping, which could hide a NaN
+        y[k] = min(max(value, floor[k]), ceiling[k])
         conf = min(conf, w_max)
-    return calibrated(conf, hp)
+    return calibrated(conf, hp) if finite else -2.0
 
