@@ -97,8 +97,10 @@ def update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres):
         yres -= s * beta[r]
         s_last[r] = s
         sum_w[r] = lam * sum_w[r] + w
-    # error sums only once the field has some history, as in the reference
-    if n_data[0] * (1.0 - lam0) > 0.1:
+    # error sums (which set the metric's steps) only once the field has a history: as in the reference,
+    # and from 5 n samples, since earlier errors say nothing of its width (in 18-D, steps from a few
+    # samples' errors narrowed a linear output's fields into 108 where 2 do)
+    if n_data[0] * (1.0 - lam0) > 0.1 and n_data[0] > 5.0 * n:
         for r in range(n_reg):
             sum_ecv2[r] = lam_v[r] * sum_ecv2[r] + w * e_cv[r] * e_cv[r]
         st[SUM_E2] = lam_v[n_reg - 1] * st[SUM_E2] + w * yres * yres
