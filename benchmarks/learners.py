@@ -1,8 +1,10 @@
 """Benchmark every registered learner on the LWPR tutorial's cross and the paper's mirroring.
 
 Prints a table (learner x task: accuracy, size, updates/s, predictions/s), the reference
-library's figures beside ours, and as its LAST line one JSON object of the figures.
-`--quick` runs in a minute or two; progress bars go to stderr.
+library's figures beside ours, then LWPR over 10 independent data draws per protocol (median and
+worst) beside the reference library on the same draws, and as its LAST line one JSON object of the
+figures. `--quick` runs in a minute or two (the two slower protocols over 3 draws); progress bars go
+to stderr.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
+from benchmarks.lib import lwpr_versus  # noqa: E402
 from benchmarks.lib.tasks import (  # noqa: E402
     CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse,
     three_outputs, three_outputs_samples, worst_error,
@@ -141,7 +144,7 @@ def first_call_seconds(name: str, cold: bool) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
-def main(quick: bool) -> dict:
+def main(quick: bool, reference_source: Path | None = None) -> dict:
     epochs, samples = (5, 2000) if quick else (20, 15000)
     figures: dict = {}
     rows = []
@@ -161,6 +164,10 @@ def main(quick: bool) -> dict:
     print_table(rows, epochs)
     if "lwpr_cross_nmse" in figures:
         print_closing_note(figures, epochs)
+        draws = 10
+        mine = lwpr_versus.ours(draws, slow_draws=3 if quick else draws)
+        theirs, provenance = lwpr_versus.reference(draws, reference_source)
+        figures.update(lwpr_versus.table(mine, theirs, provenance))
     return figures
 
 
@@ -217,4 +224,8 @@ def print_closing_note(figures: dict, epochs: int) -> None:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="fewer epochs and samples (a minute or two)")
-    print(json.dumps(main(parser.parse_args().quick)))
+    parser.add_argument("--reference-source", type=Path, default=None,
+                        help="a checkout of the reference LWPR library (github.com/ipab-slmc/lwpr) to build and "
+                             "measure on the same draws; without it its recorded figures are shown")
+    arguments = parser.parse_args()
+    print(json.dumps(main(arguments.quick, arguments.reference_source)))
