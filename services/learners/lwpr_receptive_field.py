@@ -70,9 +70,8 @@ def update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres):
         row = r * n
         norm = 0.0
         dot = 0.0  # sxy . xres, so s needs no second pass over the new direction
-        lam_slow = 0.9 + 0.1 * lam
         for i in range(n):
-            value = lam_slow * sxy[row + i] + w * yres * xres[i]
+            value = lam * sxy[row + i] + w * yres * xres[i]
             sxy[row + i] = value
             norm += value * value
             dot += value * xres[i]
@@ -96,16 +95,10 @@ def update_projections(st, n, n_reg, xmz, ymz, w, e_cv, xres):
             xres[i] -= s * p[row + i]
         yres -= s * beta[r]
         s_last[r] = s
+        sum_ecv2[r] = lam * sum_ecv2[r] + w * e_cv[r] * e_cv[r]
         sum_w[r] = lam * sum_w[r] + w
-    # error sums (which set the metric's steps) only once the field has a history: as in the reference,
-    # and from 5 n samples, since earlier errors say nothing of its width (in 18-D, steps from a few
-    # samples' errors narrowed a linear output's fields into 108 where 2 do)
-    if n_data[0] * (1.0 - lam0) > 0.1 and n_data[0] > 5.0 * n:
-        for r in range(n_reg):
-            sum_ecv2[r] = lam_v[r] * sum_ecv2[r] + w * e_cv[r] * e_cv[r]
-        st[SUM_E2] = lam_v[n_reg - 1] * st[SUM_E2] + w * yres * yres
-    for r in range(n_reg):
-        n_data[r] = lam_v[r] * n_data[r] + 1.0
+        n_data[r] = lam * n_data[r] + 1.0
+    st[SUM_E2] = lam0 * st[SUM_E2] + w * yres * yres
     return yres
 
 
