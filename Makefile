@@ -17,9 +17,6 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	# compile every learner's kernels into numba's cache once, in one process: processes that each compile
-	# them cold can round differently (a replay then differs from the live learner by up to 3e-9)
-	$(VENV)/bin/python -c "import services; from services.learners import LEARNERS, compile_kernels, make_learner; [compile_kernels(make_learner(n, 2, 1)) for n in LEARNERS]"
 	$(VENV)/bin/pytest -q
 
 bench: $(STAMP)

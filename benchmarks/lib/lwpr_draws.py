@@ -15,9 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.learners import make_learner
-from benchmarks.lib.tasks import (
-    CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse, worst_error,
-)
+from benchmarks.lib.tasks import cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse, worst_error
 
 MIRROR_THRESHOLD = 0.05  # rad, worst held-out error
 
@@ -30,16 +28,11 @@ class Case:
     truth: np.ndarray
 
 
-def tutorial_stream(draw: int, points: int = 500, epochs: int = 20) -> tuple[np.ndarray, np.ndarray]:
+def cross_case(draw: int, points: int = 500, epochs: int = 20) -> Case:
     xs, ys = cross_training(points, seed=draw)
     order = np.random.default_rng(draw + 1000).permutation(np.tile(np.arange(points), epochs))
-    return xs[order], ys[order]
-
-
-def cross_case(draw: int, epochs: int = 20) -> Case:
-    xs, ys = tutorial_stream(draw, epochs=epochs)
     grid, truth = cross_grid()
-    return Case(xs, ys, grid, truth)
+    return Case(xs[order], ys[order], grid, truth)
 
 
 def irrelevant_case(draw: int, samples: int = 20_000, dims: int = 20) -> Case:
@@ -54,16 +47,11 @@ def mirror_case(draw: int, samples: int = 20_000) -> Case:
     return Case(xs, ys, test, truth)
 
 
-def final_nmse(case: Case, params: dict) -> tuple[float, int]:
-    """(nMSE on the held-out inputs, receptive fields) after the whole stream."""
+def final_nmse(case: Case, params: dict) -> float:
+    """nMSE on the held-out inputs after the whole stream."""
     model = make_learner("lwpr", case.xs.shape[1], case.ys.shape[1], seed=0, **params)
     model.learn_many(case.xs, case.ys)
-    return nmse(model.predict_many(case.test).y, case.truth), model.size
-
-
-def tutorial(draw: int, params: dict, epochs: int = 20) -> tuple[float, int]:
-    """(nMSE, receptive fields) of LWPR with `params` taught one tutorial draw."""
-    return final_nmse(cross_case(draw, epochs), params)
+    return nmse(model.predict_many(case.test).y, case.truth)
 
 
 def mirror_checkpoints(samples: int) -> list[int]:
@@ -79,16 +67,13 @@ def samples_until_good(errors: dict[int, float]) -> int | None:
     return good
 
 
-def mirror_samples_until_good(case: Case, params: dict) -> tuple[int | None, float]:
-    """(samples until the held-out worst error stays under the threshold, final worst error)."""
+def mirror_samples_until_good(case: Case, params: dict) -> int | None:
+    """Samples until the held-out worst error stays under the threshold (None: never)."""
     model = make_learner("lwpr", 18, 18, seed=0, **params)
     errors, done = {}, 0
     for seen in mirror_checkpoints(len(case.xs)):
         model.learn_many(case.xs[done:seen], case.ys[done:seen])
         done = seen
         errors[seen] = worst_error(model.predict_many(case.test).y, case.truth)
-    return samples_until_good(errors), errors[done]
+    return samples_until_good(errors)
 
-
-__all__ = ["CROSS_LWPR_PARAMS", "Case", "cross_case", "final_nmse", "irrelevant_case", "mirror_case",
-           "mirror_checkpoints", "mirror_samples_until_good", "samples_until_good", "tutorial", "tutorial_stream"]

@@ -13,10 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.lib.lwpr_draws import (
-    Case, cross_case, irrelevant_case, mirror_case, samples_until_good, worst_error,
-)
-from benchmarks.lib.tasks import nmse
+from benchmarks.lib.lwpr_draws import Case, cross_case, irrelevant_case, mirror_case, samples_until_good
+from benchmarks.lib.tasks import nmse, worst_error
 
 DRIVER = Path(__file__).resolve().parents[1] / "reference" / "lwpr_drive.c"
 LIBRARY_FILES = ("lwpr.c", "lwpr_aux.c", "lwpr_math.c", "lwpr_mem.c", "lwpr_binio.c")
@@ -33,7 +31,7 @@ def our_defaults(n_in: int) -> tuple:
 
 MIRROR_EVERY = 250  # the driver predicts after every this many updates
 
-RECORDED = {  # measure(binary, 10) at dogged 4504750 on this machine, draws 0-9
+RECORDED = {  # measure(binary, 10) on this machine: draws 0-9 as lwpr_draws.py makes them
     "cross": [0.0427, 0.0362, 0.0475, 0.0226, 0.0272, 0.0389, 0.0353, 0.0284, 0.0301, 0.0407],
     "cross_untuned": [0.1333, 0.0986, 0.1122, 0.0823, 0.0837, 0.0941, 0.1009, 0.0626, 0.0950, 0.0784],
     "irrelevant20": [1.0098, 1.0922, 1.0021, 1.0757, 1.0408, 1.0234, 1.0006, 1.0172, 1.0095, 1.0344],
@@ -53,8 +51,8 @@ def build(source: Path, into: Path) -> Path:
     return binary
 
 
-def run(binary: Path, case: Case, settings: tuple, every: int | None = None) -> tuple[np.ndarray, int, float]:
-    """(test predictions after every `every` updates, stacked; receptive fields; updates/s)."""
+def run(binary: Path, case: Case, settings: tuple, every: int | None = None) -> np.ndarray:
+    """The test predictions after every `every` updates (default: once, at the end), stacked."""
     n_in, n_out = case.xs.shape[1], case.ys.shape[1]
     with tempfile.TemporaryDirectory() as work:
         train, test, out = (Path(work) / name for name in ("train.bin", "test.bin", "out.bin"))
@@ -62,10 +60,8 @@ def run(binary: Path, case: Case, settings: tuple, every: int | None = None) -> 
         case.test.astype(np.float64).tofile(test)
         args = [str(binary), str(n_in), str(n_out), *(str(value) for value in settings), str(train), str(test),
                 str(out), str(every or len(case.xs))]
-        done = subprocess.run(args, check=True, capture_output=True, text=True)
-        rfs, rate = done.stderr.split()[-2:]
-        predictions = np.fromfile(out).reshape(-1, len(case.test), n_out)
-    return predictions, int(rfs), float(rate)
+        subprocess.run(args, check=True, capture_output=True)
+        return np.fromfile(out).reshape(-1, len(case.test), n_out)
 
 
 def measure(binary: Path, draws: int, irrelevant_samples: int = 20_000) -> dict[str, list]:
@@ -73,12 +69,12 @@ def measure(binary: Path, draws: int, irrelevant_samples: int = 20_000) -> dict[
     figures: dict[str, list] = {"cross": [], "cross_untuned": [], "irrelevant20": [], "mirror": []}
     for draw in range(draws):
         case = cross_case(draw)
-        figures["cross"].append(nmse(run(binary, case, TUTORIAL)[0][-1], case.truth))
-        figures["cross_untuned"].append(nmse(run(binary, case, LIBRARY_DEFAULTS)[0][-1], case.truth))
+        figures["cross"].append(nmse(run(binary, case, TUTORIAL)[-1], case.truth))
+        figures["cross_untuned"].append(nmse(run(binary, case, LIBRARY_DEFAULTS)[-1], case.truth))
         case = irrelevant_case(draw, irrelevant_samples)
-        figures["irrelevant20"].append(nmse(run(binary, case, our_defaults(20))[0][-1], case.truth))
+        figures["irrelevant20"].append(nmse(run(binary, case, our_defaults(20))[-1], case.truth))
         case = mirror_case(draw)
-        steps = run(binary, case, our_defaults(18), MIRROR_EVERY)[0]
+        steps = run(binary, case, our_defaults(18), MIRROR_EVERY)
         errors = {MIRROR_EVERY * (i + 1): worst_error(p, case.truth) for i, p in enumerate(steps)}
         figures["mirror"].append(samples_until_good(errors))
     return figures

@@ -9,11 +9,10 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks.lib import lwpr_reference
-from benchmarks.lib.lwpr_draws import (
-    CROSS_LWPR_PARAMS, cross_case, final_nmse, irrelevant_case, mirror_case, mirror_samples_until_good,
-)
+from benchmarks.lib.lwpr_draws import cross_case, final_nmse, irrelevant_case, mirror_case, mirror_samples_until_good
+from benchmarks.lib.tasks import CROSS_LWPR_PARAMS
 
-# protocol: (what it measures, unit, lower is better)
+# protocol: what it measures (every figure: lower is better)
 PROTOCOLS = {
     "cross": "tutorial cross, tutorial settings: nMSE",
     "cross_untuned": "tutorial cross, each library's defaults: nMSE",
@@ -27,11 +26,11 @@ def ours(draws: int, slow_draws: int) -> dict[str, list]:
     figures: dict[str, list] = {name: [] for name in PROTOCOLS}
     for draw in tqdm(range(draws), desc="lwpr draws", leave=False, file=sys.stderr):
         case = cross_case(draw)
-        figures["cross"].append(final_nmse(case, CROSS_LWPR_PARAMS)[0])
-        figures["cross_untuned"].append(final_nmse(case, {})[0])
+        figures["cross"].append(final_nmse(case, CROSS_LWPR_PARAMS))
+        figures["cross_untuned"].append(final_nmse(case, {}))
         if draw < slow_draws:
-            figures["irrelevant20"].append(final_nmse(irrelevant_case(draw), {})[0])
-            figures["mirror"].append(mirror_samples_until_good(mirror_case(draw), {})[0])
+            figures["irrelevant20"].append(final_nmse(irrelevant_case(draw), {}))
+            figures["mirror"].append(mirror_samples_until_good(mirror_case(draw), {}))
     return figures
 
 
@@ -44,10 +43,15 @@ def reference(draws: int, source: Path | None) -> tuple[dict[str, list], str]:
         return lwpr_reference.measure(binary, draws), "measured in this run"
 
 
+def figure(value) -> float:
+    """A draw's figure; a mirroring draw that never got there counts as infinitely many samples."""
+    return np.inf if value is None else value
+
+
 def summary(values: list) -> tuple[float, float]:
-    """(median, worst); a mirroring draw that never got there counts as infinitely many samples."""
-    finite = [np.inf if v is None else v for v in values]
-    return float(np.median(finite)), float(np.max(finite))
+    """(median, worst)."""
+    numbers = [figure(v) for v in values]
+    return float(np.median(numbers)), float(np.max(numbers))
 
 
 def table(mine: dict[str, list], theirs: dict[str, list], provenance: str) -> dict:
@@ -59,7 +63,7 @@ def table(mine: dict[str, list], theirs: dict[str, list], provenance: str) -> di
         values, ref = mine[name], theirs.get(name, [])[:len(mine[name])]
         median, worst = summary(values)
         ref_median, ref_worst = summary(ref) if len(ref) == len(values) else (np.nan, np.nan)
-        worse = sum(1 for a, b in zip(values, ref) if (np.inf if a is None else a) > (np.inf if b is None else b))
+        worse = sum(1 for a, b in zip(values, ref) if figure(a) > figure(b))
         print(f"  {label:74} {len(values):>5} {median:>10.4g} / {worst:<9.4g} {ref_median:>7.4g} / {ref_worst:<8.4g}"
               f" {worse if ref else '-':>11}")
         figures.update({f"lwpr_{name}_median": median, f"lwpr_{name}_worst": worst, f"lwpr_{name}_draws": len(values),

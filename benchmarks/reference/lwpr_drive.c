@@ -1,13 +1,12 @@
 /* Runs the reference LWPR library (Klanke, Vijayakumar & Schaal, v1.2.x; not part of dogged) over
  * a stream, for benchmarks/lib/lwpr_reference.py. Training rows (inputs then outputs, float64, in
  * update order) and test inputs come from files; the test predictions after every `every` updates
- * go to `out`; stderr gets "<receptive fields> <updates per second>".
+ * go to `out`.
  * argv: nIn nOut init_D w_gen diag_only meta init_alpha train test out [every]
  * init_D or init_alpha <= 0 keeps the library's default. */
 #include <lwpr.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <time.h>
 static double *load(const char *p, long *count) {
   FILE *f = fopen(p, "rb");
   if (f == NULL) { perror(p); exit(2); }
@@ -25,20 +24,16 @@ int main(int argc, char **argv) {
   long nt, ns; double *tr = load(argv[8], &nt), *te = load(argv[9], &ns);
   long rows = nt / (nIn + nOut), trows = ns / nIn;
   long every = argc > 11 ? atol(argv[11]) : rows;  /* predictions of the test inputs after every `every` updates */
-  double yp[64], w[64], secs = 0.0; struct timespec a, b;  /* w: the strongest activation per output */
+  if (every < 1) { fprintf(stderr, "every must be >= 1\n"); return 2; }
+  double yp[64], w[64];  /* w: the strongest activation per output */
   FILE *o = fopen(argv[10], "wb");
   if (o == NULL) { perror(argv[10]); exit(2); }
   for (long done = 0; done < rows;) {
     long stop = done + every < rows ? done + every : rows;
-    clock_gettime(CLOCK_MONOTONIC, &a);
     for (long r = done; r < stop; r++) lwpr_update(&model, tr + r * (nIn + nOut), tr + r * (nIn + nOut) + nIn, yp, w);
-    clock_gettime(CLOCK_MONOTONIC, &b);
-    secs += (b.tv_sec - a.tv_sec) + 1e-9 * (b.tv_nsec - a.tv_nsec);
     for (long r = 0; r < trows; r++) { lwpr_predict(&model, te + r * nIn, 0.001, yp, NULL, NULL); fwrite(yp, 8, nOut, o); }
     done = stop;
   }
   fclose(o);
-  int rfs = 0; for (int k = 0; k < nOut; k++) rfs += model.sub[k].numRFS;
-  fprintf(stderr, "%d %f\n", rfs, rows / secs);
   return 0;
 }

@@ -229,7 +229,7 @@ class LWPR(Learner):
         super().__setstate__(state)
         self._hp = self._hyper_parameter_vector()  # the kernels' layout of this version
         taught = self._taught  # learn_one's kernel widens its range in place
-        taught.low, taught.high = kernel_ready(taught.low).copy(), kernel_ready(taught.high).copy()
+        taught.low, taught.high = np.array(taught.low, dtype=np.float64), np.array(taught.high, dtype=np.float64)
         taught.refresh()  # writeable floor and ceiling too: a read-only array would compile the kernel again
 
 
