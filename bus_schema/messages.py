@@ -187,7 +187,8 @@ class ControlReply:
 
 @dataclass(frozen=True, slots=True)
 class Frame:
-    """A JPEG camera frame. tick: the DL tick it starts when the camera is the input (0 otherwise)."""
+    """A JPEG camera frame. tick: the DL tick it starts when the camera is the input; beside
+    another input, the frame's own count (perception may start another instance's ticks with it)."""
     FIELDS = (("tick", INT), ("stamp", FLOAT), ("sim_time", FLOAT), ("width", INT), ("height", INT), ("jpeg", BYTES))
     MAX_BYTES = 2 * 1024 * 1024
     tick: int

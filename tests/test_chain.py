@@ -1,4 +1,6 @@
 """Two DL instances chained: the upper one's commands are the lower one's inputs; the robot obeys the lower."""
+import time
+
 import numpy as np
 
 from bus_schema import Command, Input, SpacesMessage, decode
@@ -81,3 +83,49 @@ def test_chain_extra_appends_the_latest_sample_of_another_stream(router, tmp_pat
     finally:
         probe.close()
         assert stop(*procs) == [0] * len(procs)
+
+
+def test_chain_clock_extra_keeps_the_extra_ticks_and_stands_when_the_upper_stops(router, tmp_path):
+    """`chain --clock extra`: a lower input per sample of the extra stream (a robot's 60 Hz clock), with
+    the latest upper command (15 Hz) in front; the robot obeys the lower level on its own ticks. When the
+    upper level stops, after --hold the lower inputs carry the middle of the upper's output (rest)."""
+    c = ["--connect", router]
+
+    def box(name, *args):
+        return dogged("run", *args, *c, log=tmp_path / f"{name}.log")
+
+    upper = [box("up-platform", "platform", "--instance", "up", "--name", "up-platform", "--param", "dims=2",
+                 "--param", "wander_hz=2.0", "--rate", "15"),
+             box("up-teacher", "demonstrator", "--instance", "up", "--teacher", "sine", "--on"),
+             box("up-arbitrator", "arbitrator", "--instance", "up")]
+    lower = [box("body", "platform", "--instance", "body", "--name", "body", "--param", "dims=2", "--rate", "60",
+                 "--command-from", "low"),
+             box("chain", "chain", "--upper", "up", "--lower", "low", "--consumer-spaces", "dl/body/spaces",
+                 "--extra", "body", "--clock", "extra", "--hold", "0.3"),
+             box("low-teacher", "demonstrator", "--instance", "low", "--teacher", "copy", "--on",
+                 "--param", "pairs=[[0,0],[1,1]]"),
+             box("low-arbitrator", "arbitrator", "--instance", "low")]
+    probe = Probe(router)
+    try:
+        commands, chained = probe.record("dl/up/command"), probe.record("dl/low/input")
+        body_inputs = probe.record("dl/body/input")
+        probe.wait_for(lambda: len(chained) >= 300, 60, "300 chained inputs")
+        ups = [decode(Command, raw, k, {"y": 2}) for k, raw, _ in commands]
+        lows = [decode(Input, raw, k, {"x": 6}) for k, raw, _ in chained]  # 2 commanded + the body's 4
+        bodies = {m.tick: m.x for m in (decode(Input, raw, k, {"x": 4}) for k, raw, _ in body_inputs)}
+        assert len(lows) > 3 * len(ups), f"{len(lows)} lower inputs for {len(ups)} upper commands"
+        judged = [m for m in lows if m.tick in bodies][20:]
+        assert len(judged) > 200 and all(np.array_equal(m.x[2:], bodies[m.tick]) for m in judged)
+        said = {tuple(m.y) for m in ups}
+        assert sum(tuple(m.x[:2]) in said for m in judged) >= 0.9 * len(judged), "the upper's commands, as said"
+        probe.wait_for(lambda: probe.counter("platform/body", "applied") > 200, 30, "the robot obeys the lower level")
+        assert stop(*upper) == [0] * len(upper)
+        time.sleep(1.0)
+        seen = len(chained)
+        probe.wait_for(lambda: len(chained) >= seen + 60, 30, "60 more chained inputs")
+        resting = [decode(Input, raw, k, {"x": 6}) for k, raw, _ in chained[seen:]]
+        assert all(np.array_equal(m.x[:2], [0.0, 0.0]) for m in resting), "the upper gone: rest"
+        assert probe.counter("chain/chain", "upper_stale") > 0
+    finally:
+        probe.close()
+        assert stop(*upper, *lower) == [0] * (len(upper) + len(lower))

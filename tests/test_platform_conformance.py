@@ -31,11 +31,12 @@ def a_recorded_run() -> str:
     writer.close()
     return str(folder)
 
-# every registered platform, plus the Aibo's second command mode; cameras off: the checks are
+# every registered platform, plus the Aibo's other command modes; cameras off: the checks are
 # about the contract, not the frames
 VARIANTS = {name: (name, {}) for name in PLATFORMS}
 VARIANTS["aibo"] = ("aibo", {"camera": False})
 VARIANTS["aibo-move"] = ("aibo", {"camera": False, "command": "move"})
+VARIANTS["aibo-legs"] = ("aibo", {"camera": False, "command": "legs", "inputs": "phase"})
 VARIANTS["recorded"] = ("recorded", {"run": a_recorded_run()})
 
 

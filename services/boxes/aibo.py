@@ -2,11 +2,13 @@
 
 DL side (dl/<instance>/...): with --input joints it is the platform of the mirroring task (input
 the 18 joint positions); with --input camera its ticks are camera frames that perception turns
-into the input (ball seeking). Either way it applies the arbitrator's commands (18 joint targets,
-or --command move: forward, turn walked by the gait), reports what it applied, holds still under
-the watchdog and lights its ears with the mode.
+into the input (ball seeking); with --input phase its input is the gait clock (the walk level of
+deploy/hierarchy.toml). It applies the arbitrator's commands (18 joint targets; --command move:
+forward, turn walked by the gait; --command legs: 12 leg targets), reports what it applied, holds
+still under the watchdog and lights its ears with the mode.
 Robot side (robot/<name>/...): JPEG frames at the camera rate, the simulation clock, ground-truth
-state; it takes a handler's joints and arena resets.
+state; it takes a handler's joints and arena resets. Frames beside the input are numbered by their
+own count, so perception can start another instance's ticks with them.
 """
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ from services.bus.lifecycle import StopFlag, setup_logging
 from services.bus.publishers import sensor_publisher
 from services.perception.jpeg import encode_rgb
 from services.platforms.aibo.camera import HEIGHT, WIDTH
-from services.platforms.aibo.platform import AiboPlatform
+from services.platforms.aibo.platform import COMMAND_MODES, AiboPlatform
 
 STATE_HZ = 20.0
 
@@ -45,7 +47,7 @@ class AiboLoop(PlatformLoop):
         self.handle_mask = np.zeros(18)
 
     def publish_input(self):
-        if self.input_mode == "joints":
+        if self.input_mode != "camera":
             super().publish_input()
         else:  # the frame is the tick: perception answers it with the input
             self.publish_frame(self.next_tick())
@@ -59,9 +61,9 @@ class AiboLoop(PlatformLoop):
     def publish_robot_streams(self):
         now = self.sim.sim_time
         self.clock_pub.put(encode(Clock(now, time.time())))
-        if self.input_mode == "joints" and self.camera_period and now >= self.next_frame:
+        if self.input_mode != "camera" and self.camera_period and now >= self.next_frame:
             self.next_frame = max(self.next_frame + self.camera_period, now)
-            self.publish_frame(0)
+            self.publish_frame(self.counts["frames"] + 1)
         if now >= self.next_state:
             self.next_state = now + 1.0 / STATE_HZ
             self.state_pub.put(encode(self.robot_state()))
@@ -113,7 +115,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, co
          latency_log: str | None = None, summary: str | None = None, command_from: str | None = None) -> int:
     log = setup_logging("aibo", name)
     stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
-    with AiboPlatform(seed=seed, command=command, gui=gui) as aibo, zenoh.open(conf) as session:
+    inputs = "phase" if input_mode == "phase" else "joints"
+    with AiboPlatform(seed=seed, command=command, gui=gui, inputs=inputs) as aibo, zenoh.open(conf) as session:
         loop = AiboLoop(session, keys, robot_keys, aibo, log, name, input_mode, camera_hz, latency_log)
         robot_spaces = encode(SpacesMessage(aibo.spaces.to_dict()))
         held = [session.declare_subscriber(robot_keys.handle, inbox.callback("handle")),
@@ -125,10 +128,9 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, co
         log.info("aibo %s: input %s, command %s, %s, camera %s Hz", robot, input_mode, command,
                  f"{rate_hz} Hz" if rate_hz else "lockstep", camera_hz)
         # with the camera as input, perception owns dl/<i>/spaces (its input, our output)
-        spaces_key = keys.spaces if input_mode == "joints" else ""
-        command_key = InstanceKeys(command_from).command if command_from else None
+        spaces_key = "" if input_mode == "camera" else keys.spaces
         run_ticks(loop, session, keys, inbox, stop, handlers, rate_hz, sim_hz, watchdog, max_ticks, spaces_key,
-                  command_key)
+                  command_from)
         finish(loop, latency_log, summary)
         del held
     return 0
@@ -140,11 +142,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--name", default="aibo")
     parser.add_argument("--robot", default="aibo", help="robot name: its streams are under robot/<name>/")
     parser.add_argument("--seed", type=int, default=0, help="the same seed gives the same arena and run")
-    parser.add_argument("--command", choices=("joints", "move"), default="joints")
-    parser.add_argument("--input", choices=("joints", "camera"), default="joints", dest="input_mode")
+    parser.add_argument("--command", choices=COMMAND_MODES, default="joints")
+    parser.add_argument("--input", choices=("joints", "camera", "phase"), default="joints", dest="input_mode")
     parser.add_argument("--rate", type=float, default=30.0, help="control rate in Hz, real time; 0 = lockstep")
     parser.add_argument("--sim-hz", type=float, default=30.0, help="simulated ticks per second in lockstep")
-    parser.add_argument("--camera-hz", type=float, default=15.0, help="frame rate with --input joints (0: none)")
+    parser.add_argument("--camera-hz", type=float, default=15.0, help="frame rate beside the input (0: none)")
     parser.add_argument("--watchdog", type=float, default=0.5)
     parser.add_argument("--max-ticks", type=int, default=0)
     parser.add_argument("--gui", action="store_true", help="PyBullet's GUI (needs a display)")

@@ -7,11 +7,19 @@ the lower input of tick k, optionally followed by the latest sample of an extra 
 (the robot's joint readings, for instance). It answers the lower instance's spaces: input the
 upper's output space (plus the extra's), output the space of the box that consumes the lower
 commands (the robot's or a further chain's).
+
+With --clock extra the lower level keeps the extra stream's ticks instead: each extra sample
+(the robot's gait clock at 60 Hz, say) becomes a lower input, after the latest upper command
+(a movement decided at 15 Hz). An upper command older than --hold seconds (the upper level
+stopped) gives way to the middle of the upper's output space (for a movement: stand still).
+--ease S eases each new upper command in over S seconds (first order), as the hand-coded gait
+eases its own: a trot whose strides flip at 15 Hz threw the robot on its back.
 """
 from __future__ import annotations
 
 import argparse
 import collections
+import time
 
 import numpy as np
 import zenoh
@@ -31,6 +39,18 @@ class SpacesAt:
         self.spaces = key
 
 
+class Easing:
+    """First-order easing towards the latest target over `seconds` (0: none, the target as it is)."""
+
+    def __init__(self, start: np.ndarray, seconds: float):
+        self.value, self.seconds = np.array(start, dtype=np.float64), seconds
+
+    def step(self, target: np.ndarray, dt: float) -> np.ndarray:
+        blend = 1.0 - np.exp(-max(dt, 0.0) / self.seconds) if self.seconds > 0 else 1.0
+        self.value = self.value + blend * (np.asarray(target, dtype=np.float64) - self.value)
+        return self.value
+
+
 def lower_spaces(upper: Spaces, consumer: Spaces, extra: Spaces | None) -> Spaces:
     box = upper.output
     if extra is not None:
@@ -39,7 +59,8 @@ def lower_spaces(upper: Spaces, consumer: Spaces, extra: Spaces | None) -> Space
     return Spaces(box, consumer.output, {"chained_from": "upper instance's output"})
 
 
-def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces: str, extra: str | None) -> int:
+def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces: str, extra: str | None,
+         clock: str = "upper", hold_s: float = 0.5, ease_s: float = 0.0) -> int:
     log = setup_logging("chain", name)
     stop, up, down, inbox = StopFlag(), InstanceKeys(upper), InstanceKeys(lower), Inbox()
     rejects, counts = Rejects(log), collections.Counter()
@@ -61,6 +82,9 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
         status = StatusPublisher(session, down.status("chain", name), "chain", name)
         latest_extra = np.zeros(extra_spaces.input.dims) if extra_spaces else np.zeros(0)
         n_up = upper_spaces.output.dims
+        rest = (np.asarray(upper_spaces.output.low) + np.asarray(upper_spaces.output.high)) / 2.0
+        latest_up, latest_up_at = rest, -np.inf
+        eased, eased_at = Easing(rest, ease_s), time.monotonic()
         log.info("chaining %s -> %s: %d inputs (%s)", upper, lower, spaces.input.dims, ", ".join(spaces.input.names))
         while not stop:
             for tag, key, raw, _ in inbox.drain(0.1):
@@ -70,9 +94,22 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                     msg = decode_or_reject(Input, raw, key, rejects, {"x": len(latest_extra)})
                     if msg is not None:
                         latest_extra = msg.x
+                        if clock == "extra":
+                            now = time.monotonic()
+                            fresh = now - latest_up_at <= hold_s
+                            counts["upper_stale"] += not fresh
+                            command = eased.step(latest_up if fresh else rest, min(now - eased_at, 1.0))
+                            eased_at = now
+                            pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([command, msg.x]))))
+                            counts["relayed"] += 1
                 else:
                     msg = decode_or_reject(Command, raw, key, rejects, {"y": n_up})
-                    if msg is not None:
+                    if msg is None:
+                        continue
+                    if clock == "extra":
+                        latest_up, latest_up_at = msg.y, time.monotonic()
+                        counts["upper_commands"] += 1
+                    else:
                         pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([msg.y, latest_extra]))))
                         counts["relayed"] += 1
             status.maybe_publish(lambda: (dict(counts, rejected=rejects.total), {"upper": upper, "lower": lower}))
@@ -87,8 +124,21 @@ def cli(argv=None) -> int:
     parser.add_argument("--consumer-spaces", required=True,
                         help="key of the spaces of whoever applies the lower commands, e.g. robot/aibo/spaces")
     parser.add_argument("--extra", default=None, help="an instance whose input stream is appended (e.g. joints)")
+    parser.add_argument("--clock", choices=("upper", "extra"), default="upper",
+                        help="whose ticks the lower level keeps: one per upper command, or one per extra sample")
+    parser.add_argument("--hold", type=float, default=0.5, metavar="SECONDS",
+                        help="with --clock extra: an upper command older than this gives way to rest")
+    parser.add_argument("--ease", type=float, default=0.0, metavar="SECONDS",
+                        help="with --clock extra: ease each new upper command in over this time (0: at once)")
     parser.add_argument("--name", default="chain")
     parser.add_argument("--instance", help=argparse.SUPPRESS)
     add_bus_args(parser)
     a = parser.parse_args(argv)
-    return main(config_from_args(a), a.upper, a.lower, a.name, a.consumer_spaces, a.extra)
+    if a.clock == "extra" and not a.extra:
+        parser.error("--clock extra needs --extra INSTANCE: the stream whose samples start the lower ticks")
+    if not (np.isfinite(a.hold) and a.hold > 0):
+        parser.error(f"--hold must be a positive number of seconds, got {a.hold}")
+    if not (np.isfinite(a.ease) and a.ease >= 0):
+        parser.error(f"--ease must be zero or a positive number of seconds, got {a.ease}")
+    return main(config_from_args(a), a.upper, a.lower, a.name, a.consumer_spaces, a.extra, a.clock, a.hold,
+                a.ease)

@@ -1,7 +1,9 @@
 """Perception: a robot's camera frames -> colour blobs -> the DL input (ball seeking's pre-processing).
 
 Latest-only: if frames come faster than they are processed, the stale ones are skipped (counted).
-It answers dl/<i>/spaces with its own input space and the robot's output space.
+It answers dl/<i>/spaces with its own input space and the robot's output space, or with
+--output movement the movement the robot offers to an upper level (a walk level below learns the
+legs: deploy/hierarchy.toml).
 """
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import time
 
 import zenoh
 
-from bus_schema import Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, encode
+from bus_schema import Box, Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, encode
 from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
@@ -40,8 +42,22 @@ def parse_colours(items: list[str] | None) -> dict | None:
     return colours
 
 
+def output_box(robot_spaces: Spaces, output: str, robot: str) -> Box:
+    """The instance's output: the robot's own commands, or the movement it offers to an upper level."""
+    if output == "robot":
+        return robot_spaces.output
+    offered = robot_spaces.extra.get("movement")
+    if offered is None:
+        raise ValueError(f"robot {robot!r} offers no movement command (its spaces have no extra 'movement'); "
+                         "run it with --command move or --command legs")
+    try:
+        return Box.from_dict(offered)
+    except (KeyError, TypeError, ValueError) as err:
+        raise ValueError(f"robot {robot!r} offers a malformed movement space: {err}") from None
+
+
 def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict | None,
-         layout: str = "colours") -> int:
+         layout: str = "colours", output: str = "robot") -> int:
     log = setup_logging("perception", name)
     stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
     detector = BlobDetector(colours)
@@ -53,7 +69,12 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
         robot_spaces = fetch_spaces(session, robot_keys, stop, log)
         if robot_spaces is None:
             return 0
-        spaces = Spaces(in_box, robot_spaces.output, {"perception": f"colour blobs ({layout})", "robot": robot})
+        try:
+            out_box = output_box(robot_spaces, output, robot)
+        except ValueError as err:
+            log.error("%s", err)
+            return 2
+        spaces = Spaces(in_box, out_box, {"perception": f"colour blobs ({layout})", "robot": robot})
         spaces_payload = encode(SpacesMessage(spaces.to_dict()))
         pub = sensor_publisher(session, keys.input)
         held = [session.declare_subscriber(robot_keys.camera, inbox.callback("frame")),
@@ -99,6 +120,8 @@ def cli(argv=None) -> int:
                         help=f"HSV range of a colour (repeatable; default {', '.join(DEFAULT_COLOURS)})")
     parser.add_argument("--layout", choices=("colours", "slots"), default="colours",
                         help="colours: 4 inputs per colour; slots: blobs largest first, colour an input")
+    parser.add_argument("--output", choices=("robot", "movement"), default="robot",
+                        help="the instance's output: the robot's commands, or the movement it offers (hierarchy)")
     add_bus_args(parser)
     a = parser.parse_args(argv)
-    return main(config_from_args(a), a.instance, a.name, a.robot, parse_colours(a.colour), a.layout)
+    return main(config_from_args(a), a.instance, a.name, a.robot, parse_colours(a.colour), a.layout, a.output)

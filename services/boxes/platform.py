@@ -139,15 +139,17 @@ class PlatformLoop:
 
 
 def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, rate_hz: float, sim_hz: float,
-              watchdog: float, max_ticks: int, spaces_key: str | None = None, command_key: str | None = None):
+              watchdog: float, max_ticks: int, spaces_key: str | None = None, command_from: str | None = None):
     """The platform's clock: ticks at `rate_hz` (0: lockstep, the next tick as soon as this one is
     answered), applies commands, holds under the watchdog, and serves the spaces query."""
     spaces_payload = encode(SpacesMessage(loop.platform.spaces.to_dict()))
     spaces_key = keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
-    # chained instances: the robot obeys the lowest instance's commands (dl/<lower>/command)
-    held = [session.declare_subscriber(command_key or keys.command, inbox.callback("command")),
-            session.liveliness().declare_subscriber(f"{keys.prefix}/alive/commanding/*", inbox.callback("arbitrator"),
-                                                    history=True)]
+    # chained instances: the robot obeys the lowest instance's commands (dl/<lower>/command) and
+    # waits for that instance's arbitrator
+    commander = InstanceKeys(command_from) if command_from else keys
+    held = [session.declare_subscriber(commander.command, inbox.callback("command")),
+            session.liveliness().declare_subscriber(f"{commander.prefix}/alive/commanding/*",
+                                                    inbox.callback("arbitrator"), history=True)]
     if spaces_key:
         held.append(session.declare_queryable(spaces_key, inbox.query_callback("spaces")))
     status = StatusPublisher(session, keys.status(loop.role, loop.name), loop.role, loop.name)
@@ -204,8 +206,7 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
         token = session.liveliness().declare_token(keys.alive("platform", name))
         log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
                  robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
-        command_key = InstanceKeys(command_from).command if command_from else None
-        run_ticks(loop, session, keys, inbox, stop, {}, rate_hz, sim_hz, watchdog, max_ticks, command_key=command_key)
+        run_ticks(loop, session, keys, inbox, stop, {}, rate_hz, sim_hz, watchdog, max_ticks, command_from=command_from)
         finish(loop, latency_log, summary)
         token.undeclare()
     return 0

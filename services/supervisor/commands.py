@@ -118,13 +118,19 @@ def ps(args) -> int:
     if args.json:
         print(json.dumps(reply.data))
         return 0
-    print(f"{'SERVICE':<14}{'BOX':<14}{'HOST':<12}{'PID':>8}  {'STATE':<9}{'RESTARTS':>9}{'UPTIME':>9}  RATES (/s)")
-    for row in reply.data["services"]:
+    print(f"{'SERVICE':<17}{'BOX':<14}{'HOST':<12}{'PID':>8}  {'STATE':<9}{'RESTARTS':>9}{'UPTIME':>9}  RATES (/s)")
+    rows = reply.data["services"]
+    instances = list(dict.fromkeys(row.get("instance", "") for row in rows))
+    heading = None
+    for row in sorted(rows, key=lambda r: instances.index(r.get("instance", ""))):  # grouped, first seen first
+        if len(instances) > 1 and row.get("instance", "") != heading:
+            heading = row.get("instance", "")
+            print(f"instance {heading}:" if heading else "the bus:")
         rates = " ".join(f"{k}={v:g}" for k, v in sorted(row["rates"].items()))
         ticks = " ".join(f"{k}={v:g}" for k, v in sorted(row.get("ticks", {}).items()))
         uptime = f"{row['uptime_s']:>8.0f}s" if row["state"] != "remote" else f"{'-':>9}"
         why = row.get("why") or (f"exit {row['exit']}" if row["state"] in ("failed", "backoff") else "")
-        print(f"{row['name']:<14}{row['box']:<14}{row.get('host', '?')[:11]:<12}{row['pid']:>8}  {row['state']:<9}"
+        print(f"{row['name']:<16} {row['box']:<14}{row.get('host', '?')[:11]:<12}{row['pid']:>8}  {row['state']:<9}"
               f"{row['restarts']:>9}{uptime}  {' '.join(filter(None, (why, rates, ticks)))}")
     return 0
 

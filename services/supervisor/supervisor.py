@@ -170,7 +170,8 @@ class Supervisor:
         member = f"{msg.role}/{msg.name}"
         self.status[member] = {"counters": msg.counters, "state": msg.state,
                                "rates": numeric_rates(msg.state.get("rates")), "pid": msg.pid,
-                               "host": str(msg.state.get("host", "?"))[:64], "seen": time.monotonic()}
+                               "host": str(msg.state.get("host", "?"))[:64], "seen": time.monotonic(),
+                               "instance": key.split("/")[1] if key.startswith("dl/") else ""}
         if member not in self.started and len(self.status) > len(self.started) + MAX_REMOTE:
             remote = sorted((k for k in self.status if k not in self.started), key=lambda k: self.status[k]["seen"])
             for forgotten in remote[:-MAX_REMOTE]:  # the stalest go first
@@ -215,20 +216,22 @@ class Supervisor:
         for proc in self.procs.values():
             row = proc.describe()
             status = self.status_of(proc.spec)
-            row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status))
+            row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status),
+                       instance=proc.spec.instance)
             error = status.get("state", {}).get("error")
             if error and isinstance(error, str) and "why" not in row:  # a service says what it cannot do
                 row["why"] = error[:200]
             rows.append(row)
         for spec in self.waiting:
             why = "after " + ", ".join(f"{a} ({self.procs[a].state})" if a in self.procs else a for a in spec.after)
-            rows.append(not_running_row(spec.name, spec.box, "waiting", why=why))
+            rows.append(not_running_row(spec.name, spec.box, "waiting", why=why, instance=spec.instance))
         now = time.monotonic()
         for key, status in sorted(self.status.items()):
             if key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
                 role, name = key.split("/", 1)
                 rows.append(not_running_row(name, role, "remote", pid=status["pid"], rates=status["rates"],
-                                            host=status["host"], ticks=tick_counters(status)))
+                                            host=status["host"], ticks=tick_counters(status),
+                                            instance=status["instance"]))
         return rows
 
     def logs(self, service: str, lines: int) -> ControlReply:
@@ -292,7 +295,7 @@ class Supervisor:
         prof = self.profile
         if prof.low_latency and hold_low_latency(log):
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
-        router = self.secured(ServiceSpec("router", "router", "main", restart="on-failure"), "router.router")
+        router = self.secured(ServiceSpec("router", "router", "", restart="on-failure"), "router.router")
         if prof.security is not None:  # this process's own session, before it opens
             os.environ.update(DOGGED_SECURITY=str(prof.security), DOGGED_IDENTITY=f"supervisor.{prof.name}")
         listen = sum((["--listen", e] for e in (prof.router, *prof.also_listen)), ["--token", router_token(prof.name)])

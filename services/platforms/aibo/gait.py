@@ -14,6 +14,11 @@ from services.platforms.aibo import dimensions as dims
 from services.platforms.aibo.joints import HEAD_TILT, JOINT_LIMITS, JOINT_NAMES, LEG_SLICE, LEGS, MOUTH, TAIL_TILT
 
 PHASE_OFFSET = {"fl": 0.0, "rr": 0.0, "fr": 0.5, "rl": 0.5}
+# the movement command's range: (forward m/s, turn rad/s), backwards walking included
+MOVE_NAMES = ("forward", "turn")
+MOVE_UNITS = ("m/s", "rad/s")
+MOVE_LIMITS = np.array([[-0.15, 0.15], [-0.8, 0.8]])
+LIFT_RAMP = 0.25  # pose_at: full lift from a quarter of the command range
 
 
 def leg_fk(leg: str, angles) -> np.ndarray:
@@ -66,27 +71,39 @@ class TrotGait:
     def stand_pose(self) -> np.ndarray:
         return np.concatenate([leg_ik(leg, self._foot_home(leg)) for leg in LEGS])
 
-    def _stride(self, leg: str) -> np.ndarray:
+    def _stride(self, leg: str, command: np.ndarray) -> np.ndarray:
         """Foot travel over one stance: the commanded body velocity at this foot times stance time."""
         front, left = dims.leg_side(leg)
         at_x, at_y = front * dims.SHOULDER_X, left * (dims.SHOULDER_Y + self.splay)
-        forward, turn = self._command
+        forward, turn = command
         velocity = np.array([forward - turn * at_y, turn * at_x])
         stride = velocity * self.duty * self.period
         length = float(np.linalg.norm(stride))
         return stride if length <= self.max_stride else stride * (self.max_stride / length)
 
-    def _foot(self, leg: str) -> np.ndarray:
-        phase = (self._phase + PHASE_OFFSET[leg]) % 1.0
-        stride = self._stride(leg)
+    def _foot(self, leg: str, phase: float, command: np.ndarray, activity: float) -> np.ndarray:
+        phase = (phase + PHASE_OFFSET[leg]) % 1.0
+        stride = self._stride(leg, command)
         foot = self._foot_home(leg)
         if phase < self.duty:  # stance: slide from front to back
             foot[:2] += stride * (0.5 - phase / self.duty)
         else:  # swing: lift and return with a smooth start and end
             s = (phase - self.duty) / (1.0 - self.duty)
             foot[:2] += stride * ((1.0 - np.cos(np.pi * s)) / 2.0 - 0.5)
-            foot[2] += self.lift * self._activity * np.sin(np.pi * s)
+            foot[2] += self.lift * activity * np.sin(np.pi * s)
         return foot
+
+    def _legs(self, phase: float, command: np.ndarray, activity: float) -> np.ndarray:
+        return np.concatenate([leg_ik(leg, self._foot(leg, phase, command, activity)) for leg in LEGS])
+
+    def pose_at(self, forward: float, turn: float, phase: float) -> np.ndarray:
+        """The 12 leg joint targets at gait phase `phase` (0..1) under a steady command, without
+        state: the trot as a function a learner can be taught (the walk level's demonstrator).
+        The feet lift in proportion to the command up to a quarter of its range, so a robot asked
+        to stand stands (trotting in place, this robot drifts ~7 cm/s)."""
+        command = np.array([forward, turn], dtype=np.float64)
+        share = np.max(np.abs(command) / MOVE_LIMITS[:, 1])
+        return self._legs(phase, command, float(min(1.0, share / LIFT_RAMP)))
 
     def targets(self, forward: float, turn: float, dt: float, smoothing: float | None = None) -> np.ndarray:
         """Advance the gait by dt seconds under the command, low-passed over `smoothing` seconds
@@ -97,13 +114,7 @@ class TrotGait:
         self._activity += blend * (float(moving) - self._activity)
         if self._activity > 1e-3:
             self._phase = (self._phase + dt / self.period) % 1.0
-        return np.concatenate([leg_ik(leg, self._foot(leg)) for leg in LEGS])
-
-
-# the movement command's range: (forward m/s, turn rad/s), backwards walking included
-MOVE_NAMES = ("forward", "turn")
-MOVE_UNITS = ("m/s", "rad/s")
-MOVE_LIMITS = np.array([[-0.15, 0.15], [-0.8, 0.8]])
+        return self._legs(self._phase, self._command, self._activity)
 
 
 # The camera sees 45 degrees top to bottom. Tilted 0.35 rad down, a ball at the forepaws stays in view

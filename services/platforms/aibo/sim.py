@@ -125,10 +125,13 @@ class AiboSim:
         if q is not None:
             self._handled_q = np.clip(np.asarray(q, dtype=np.float64), JOINT_LIMITS[:, 0], JOINT_LIMITS[:, 1])
 
-    def hold(self) -> None:
+    def hold(self, stand: bool = False) -> None:
         """Watchdog: keep every motor where it is now; a walking robot first puts its feet down
-        where they are (a trot frozen mid-stride stands on two diagonal paws, rocks and slides)."""
+        where they are (a trot frozen mid-stride stands on two diagonal paws, rocks and slides).
+        stand=True: the legs go to the standing pose (a robot whose legs a learned gait moved)."""
         self._targets = self.joint_positions()
+        if stand:
+            self._targets[LEG_SLICE] = self.gait.stand_pose()
         if self._mode == "move":
             self._movement = np.zeros(2)
             self._stopping = True
