@@ -16,9 +16,10 @@ from services.arbitration.strategies import Decision, TeacherFirst
 
 
 def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.ndarray | None = None,
-         index: int = 0, output_space=None) -> tuple[Decision, np.ndarray, float]:
-    """Algorithm 2, steps 3-6. `teachers`: (name, teacher) pairs switched on now. Returns the
-    decision and the student's own prediction (y_hat, confidence) before it learned this tick."""
+         index: int = 0, output_space=None, default=None) -> tuple[Decision, np.ndarray, float]:
+    """Algorithm 2, steps 3-6. `teachers`: (name, teacher) pairs switched on now; `default`: a
+    (name, controller) pair, Figure 1's default controller. Returns the decision and the student's
+    own prediction (y_hat, confidence) before it learned this tick."""
     strategy = strategy or TeacherFirst()
     predicted = learner.predict_one(x)
     proposals = []
@@ -30,7 +31,11 @@ def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.nda
     student = ("learner/student", Proposal(index, "learner/student", predicted.y, float(predicted.confidence)))
     if fallback is None:
         fallback = np.zeros(learner.n_out)
-    decision, _ = decide(strategy, proposals, student, None, fallback, output_space)
+    if default is not None:
+        name, controller = default
+        y, confidence = controller(x)
+        default = (name, Proposal(index, name, np.asarray(y, dtype=np.float64), float(confidence)))
+    decision, _ = decide(strategy, proposals, student, default, fallback, output_space)
     if trains(decision):
         learn_pair(learner, x, decision.y, decision.mask)
     return decision, predicted.y, float(predicted.confidence)

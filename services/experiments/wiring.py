@@ -12,12 +12,13 @@ from services.supervisor.profile import load_profile
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
 
 
-def wired_learner(profile: str) -> tuple[str, dict]:
-    """(learner name, hyper-parameters) of the learner service in deploy/<profile>.toml."""
+def wired_learner(profile: str, instance: str | None = None) -> tuple[str, dict]:
+    """(learner name, hyper-parameters) of the learner service in deploy/<profile>.toml (of `instance`,
+    where the profile runs several)."""
     services = load_profile(DEPLOY / f"{profile}.toml").services
-    spec = next((s for s in services if s.box == "learner"), None)
+    spec = next((s for s in services if s.box == "learner" and instance in (None, s.instance)), None)
     if spec is None:
-        raise ValueError(f"deploy/{profile}.toml starts no learner")
+        raise ValueError(f"deploy/{profile}.toml starts no learner" + (f" for instance {instance}" if instance else ""))
     parser = argparse.ArgumentParser(add_help=False)
     parser.add_argument("--learner", default=DEFAULT_LEARNER)
     parser.add_argument("--param", action="append")
