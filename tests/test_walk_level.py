@@ -54,3 +54,24 @@ def test_the_trot_teacher_names_what_its_spaces_lack():
         walk_input = walk_spaces(robot).input
     with pytest.raises(ValueError, match="answers 12 leg joint targets, but the output space has 2"):
         TrotTeacher(Spaces(walk_input, PHASE_BOX))
+
+
+def test_a_robot_that_walks_movements_with_the_walk_level_teaches_it_on_the_way():
+    """services.experiments.hierarchy: each 15 Hz movement becomes four 60 Hz walk ticks; teaching,
+    the trot drives and the learner learns every pair; untaught and alone, the default stands."""
+    from services.experiments.hierarchy import LegsUnderMovement
+    from services.learners import make_learner
+    model = make_learner("knn", 4, 12)
+    legs = LegsUnderMovement(0, model, teaching=False)
+    try:
+        for _ in range(15):
+            legs.step(np.array([0.15, 0.0]), 1 / 15)
+        assert legs.modes == {"unsure": 60} and legs.sim.base_pose()[0][0] < 0.01, "untaught: it stands"
+        legs.teaching = True
+        start = legs.sim.base_pose()[0]
+        for _ in range(75):
+            legs.step(np.array([0.15, 0.0]), 1 / 15)
+        assert legs.taught_ticks == 300 and model.n_learned == 300
+        assert np.hypot(*(legs.sim.base_pose()[0] - start)[:2]) > 0.2
+    finally:
+        legs.close()

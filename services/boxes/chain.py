@@ -12,8 +12,9 @@ With --clock extra the lower level keeps the extra stream's ticks instead: each 
 (the robot's gait clock at 60 Hz, say) becomes a lower input, after the latest upper command
 (a movement decided at 15 Hz). An upper command older than --hold seconds (the upper level
 stopped) gives way to the middle of the upper's output space (for a movement: stand still).
---ease S eases each new upper command in over S seconds (first order), as the hand-coded gait
-eases its own: a trot whose strides flip at 15 Hz threw the robot on its back.
+--ease S eases each new upper command in over S seconds (first order, the chain's own clock: real
+time), as the hand-coded gait eases its own: a trot whose strides flip at 15 Hz threw the robot on
+its back.
 """
 from __future__ import annotations
 
