@@ -14,8 +14,8 @@ TEACHERS: dict[str, str] = {
     "hold": "services.teachers.functions:HoldTeacher",
     "ballseek": "services.teachers.ballseek:ball_seek_teacher",  # either blob layout, from the input names
     "random-map": "services.teachers.random_map:RandomMapTeacher",  # a smooth map nobody designed, from a seed
-    "trot": "services.teachers.trot:TrotTeacher",
-    "wander": "services.teachers.wander:WanderTeacher",  # a handler asking for random outputs, held a while  # the walk level: movement and gait phase -> 12 leg targets
+    "trot": "services.teachers.trot:TrotTeacher",  # the walk level: movement and gait phase -> 12 leg targets
+    "wander": "services.teachers.wander:WanderTeacher",  # a handler asking for random outputs, held a while
 }
 
 
