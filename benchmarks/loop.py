@@ -2,11 +2,14 @@
 
 Real processes on a real router on loopback: point platform, a teacher switched off, an LWPR
 learner, the arbitrator. The floor is a raw UDP round trip between two processes, measured in
-the same run. Everything is measured twice: as deployed by default, then in low-latency mode
-(a PM QoS request keeping CPUs out of deep idle, `low_latency = true` in a profile); keys of the
-second carry `_low_latency`; the 100 Hz loop is also measured with a recorder writing every sample
-(`_recorded`: every profile runs one), and split into hops as an observer on the bus sees them
-(`hop_us_*`, benchmarks/lib/hops.py). Prints tables; the last line is one JSON object of the figures.
+the same run, and a Zenoh ping-pong between two Python processes that hand samples to their main
+threads as the services do (benchmarks/lib/zenoh_echo.py): a tick crosses three such hops, so
+1.5 of its round trips is the tick's floor in Python over Zenoh. Everything is measured twice: as
+deployed by default, then in low-latency mode (a PM QoS request keeping CPUs out of deep idle,
+`low_latency = true` in a profile); keys of the second carry `_low_latency`; the 100 Hz loop is
+also measured with a recorder writing every sample (`_recorded`: every profile runs one), and split
+into hops as an observer on the bus sees them (`hop_us_*`, benchmarks/lib/hops.py). Prints tables;
+the last line is one JSON object of the figures.
 """
 from __future__ import annotations
 
@@ -24,6 +27,7 @@ import time
 import numpy as np
 
 from benchmarks.lib.hops import DESCRIBED, HOPS, HopObserver  # noqa: E402
+from benchmarks.lib import zenoh_echo  # noqa: E402
 from benchmarks.lib.udp_echo import round_trips  # noqa: E402
 from services.realtime import hold_low_latency  # noqa: E402
 from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
@@ -36,6 +40,14 @@ def udp_floor(count: int) -> np.ndarray:
     try:
         round_trips(port, 200, b"x" * 96)  # warm up
         return round_trips(port, count, b"x" * 96)
+    finally:
+        stop(proc)
+
+
+def zenoh_floor(router: str, count: int) -> np.ndarray:
+    proc = dogged_python("benchmarks/lib/zenoh_echo.py", router, "120")
+    try:
+        return zenoh_echo.round_trips(router, count)
     finally:
         stop(proc)
 
@@ -104,6 +116,7 @@ def main(quick: bool) -> dict:
               dogged("run", "arbitrator", "--connect", router, log=work / "arbitrator.log")]
     probe, observer = Probe(router), HopObserver(router)
     try:
+        echoed = zenoh_floor(router, 2000 if quick else 10000) * 1e3  # before the loop runs: alone on the bus
         time.sleep(3)  # services up, kernels compiled
         rows, figures = measure(router, work, quick, "default", observer)
         rows.append(recorded_row(router, work, quick))  # what a profile's recorder costs the tick
@@ -120,9 +133,19 @@ def main(quick: bool) -> dict:
     figures["udp_rtt_ms"] = round(float(np.percentile(udp, 50)), 4)
     figures["udp_rtt_p99_ms"] = round(float(np.percentile(udp, 99)), 4)
     figures["tick_p50_over_udp"] = round(figures["tick_p50_ms"] / figures["udp_rtt_ms"], 1)
+    lost_echoes = int(np.isnan(echoed).sum())
+    figures["zenoh_rtt_ms"] = round(float(np.nanpercentile(echoed, 50)), 4)
+    figures["zenoh_rtt_p99_ms"] = round(float(np.nanpercentile(echoed, 99)), 4)
+    figures["tick_floor_ms"] = round(1.5 * figures["zenoh_rtt_ms"], 4)  # three hops, no work
+    figures["tick_p50_over_floor"] = round(figures["tick_p50_ms"] / figures["tick_floor_ms"], 2)
     print(f"{'run':<22}{'ticks':>8}{'p50 ms':>10}{'p99 ms':>10}{'lost':>7}{'p50/UDP':>10}")
     print(f"{'UDP round trip':<22}{len(udp):>8}{figures['udp_rtt_ms']:>10.3f}{figures['udp_rtt_p99_ms']:>10.3f}"
           f"{0:>7}{1.0:>10.1f}")
+    print(f"{'Zenoh round trip':<22}{len(echoed):>8}{figures['zenoh_rtt_ms']:>10.3f}"
+          f"{figures['zenoh_rtt_p99_ms']:>10.3f}{lost_echoes:>7}"
+          f"{figures['zenoh_rtt_ms'] / figures['udp_rtt_ms']:>10.1f}")
+    print(f"{'tick floor (1.5 x Zenoh)':<22}{'':>8}{figures['tick_floor_ms']:>10.3f}{'':>10}{'':>7}"
+          f"{figures['tick_floor_ms'] / figures['udp_rtt_ms']:>10.1f}")
     for name, n, p50, p99, lost in rows:
         print(f"{name:<22}{n:>8}{p50:>10.3f}{p99:>10.3f}{lost:>7}{p50 / figures['udp_rtt_ms']:>10.1f}")
     print(f"\n{'hop (100 Hz, median)':<58}{'default us':>12}{'low-lat us':>12}")
