@@ -4,7 +4,8 @@ Real processes on a real router on loopback: point platform, a teacher switched 
 learner, the arbitrator. The floor is a raw UDP round trip between two processes, measured in
 the same run, and a Zenoh ping-pong between two Python processes that hand samples to their main
 threads as the services do (benchmarks/lib/zenoh_echo.py): a tick crosses three such hops, so
-1.5 of its round trips is the tick's floor in Python over Zenoh. Everything is measured twice: as
+1.5 of its round trips, paced as ticks come (100 Hz, 1 kHz: both processes idle and wake in
+between), is the tick's floor in Python over Zenoh. Everything is measured twice: as
 deployed by default, then in low-latency mode (a PM QoS request keeping CPUs out of deep idle,
 `low_latency = true` in a profile); keys of the second carry `_low_latency`; the 100 Hz loop is
 also measured with a recorder writing every sample (`_recorded`: every profile runs one), and split
@@ -44,10 +45,12 @@ def udp_floor(count: int) -> np.ndarray:
         stop(proc)
 
 
-def zenoh_floor(router: str, count: int) -> np.ndarray:
-    proc = dogged_python("benchmarks/lib/zenoh_echo.py", router, "120")
+def zenoh_floor(router: str, quick: bool) -> dict[float, np.ndarray]:
+    """Round trips (ms) back to back (rate 0) and paced as ticks come, at 1 kHz and 100 Hz."""
+    proc = dogged_python("benchmarks/lib/zenoh_echo.py", router, "300")
+    counts = {0.0: 2000, 1000.0: 2000, 100.0: 300} if quick else {0.0: 10000, 1000.0: 10000, 100.0: 2000}
     try:
-        return zenoh_echo.round_trips(router, count)
+        return {rate: zenoh_echo.round_trips(router, n, rate_hz=rate) * 1e3 for rate, n in counts.items()}
     finally:
         stop(proc)
 
@@ -116,7 +119,7 @@ def main(quick: bool) -> dict:
               dogged("run", "arbitrator", "--connect", router, log=work / "arbitrator.log")]
     probe, observer = Probe(router), HopObserver(router)
     try:
-        echoed = zenoh_floor(router, 2000 if quick else 10000) * 1e3  # before the loop runs: alone on the bus
+        echoed = zenoh_floor(router, quick)  # before the loop runs: alone on the bus
         time.sleep(3)  # services up, kernels compiled
         rows, figures = measure(router, work, quick, "default", observer)
         rows.append(recorded_row(router, work, quick))  # what a profile's recorder costs the tick
@@ -133,19 +136,28 @@ def main(quick: bool) -> dict:
     figures["udp_rtt_ms"] = round(float(np.percentile(udp, 50)), 4)
     figures["udp_rtt_p99_ms"] = round(float(np.percentile(udp, 99)), 4)
     figures["tick_p50_over_udp"] = round(figures["tick_p50_ms"] / figures["udp_rtt_ms"], 1)
-    lost_echoes = int(np.isnan(echoed).sum())
-    figures["zenoh_rtt_ms"] = round(float(np.nanpercentile(echoed, 50)), 4)
-    figures["zenoh_rtt_p99_ms"] = round(float(np.nanpercentile(echoed, 99)), 4)
-    figures["tick_floor_ms"] = round(1.5 * figures["zenoh_rtt_ms"], 4)  # three hops, no work
+    floor_rows = []
+    for rate, suffix in ((0.0, ""), (1000.0, "_1khz"), (100.0, "_100hz")):
+        rtt = echoed[rate]
+        figures[f"zenoh_rtt_ms{suffix}"] = round(float(np.nanpercentile(rtt, 50)), 4)
+        figures[f"zenoh_rtt_p99_ms{suffix}"] = round(float(np.nanpercentile(rtt, 99)), 4)
+        floor_rows.append((f"Zenoh RTT {'back to back' if not rate else f'{rate:g} Hz'}", len(rtt),
+                           figures[f"zenoh_rtt_ms{suffix}"], figures[f"zenoh_rtt_p99_ms{suffix}"],
+                           int(np.isnan(rtt).sum())))
+    # three hops, no work, at the tick's own pace
+    figures["tick_floor_ms"] = round(1.5 * figures["zenoh_rtt_ms_100hz"], 4)
+    figures["tick_floor_ms_1khz"] = round(1.5 * figures["zenoh_rtt_ms_1khz"], 4)
     figures["tick_p50_over_floor"] = round(figures["tick_p50_ms"] / figures["tick_floor_ms"], 2)
+    figures["tick_p50_over_floor_1khz"] = round(figures["tick_p50_ms_1khz"] / figures["tick_floor_ms_1khz"], 2)
     print(f"{'run':<22}{'ticks':>8}{'p50 ms':>10}{'p99 ms':>10}{'lost':>7}{'p50/UDP':>10}")
     print(f"{'UDP round trip':<22}{len(udp):>8}{figures['udp_rtt_ms']:>10.3f}{figures['udp_rtt_p99_ms']:>10.3f}"
           f"{0:>7}{1.0:>10.1f}")
-    print(f"{'Zenoh round trip':<22}{len(echoed):>8}{figures['zenoh_rtt_ms']:>10.3f}"
-          f"{figures['zenoh_rtt_p99_ms']:>10.3f}{lost_echoes:>7}"
-          f"{figures['zenoh_rtt_ms'] / figures['udp_rtt_ms']:>10.1f}")
-    print(f"{'tick floor (1.5 x Zenoh)':<22}{'':>8}{figures['tick_floor_ms']:>10.3f}{'':>10}{'':>7}"
-          f"{figures['tick_floor_ms'] / figures['udp_rtt_ms']:>10.1f}")
+    for name, n, p50, p99, lost in floor_rows:
+        print(f"{name:<22}{n:>8}{p50:>10.3f}{p99:>10.3f}{lost:>7}{p50 / figures['udp_rtt_ms']:>10.1f}")
+    for label, suffix in (("100 Hz", ""), ("1000 Hz", "_1khz")):
+        floor = figures[f"tick_floor_ms{suffix}"]
+        print(f"{'floor ' + label:<22}{'':>8}{floor:>10.3f}{'':>10}{'':>7}{floor / figures['udp_rtt_ms']:>10.1f}"
+              f"   (1.5 Zenoh RTTs at {label}; the tick is {figures[f'tick_p50_over_floor{suffix}']:.2f}x it)")
     for name, n, p50, p99, lost in rows:
         print(f"{name:<22}{n:>8}{p50:>10.3f}{p99:>10.3f}{lost:>7}{p50 / figures['udp_rtt_ms']:>10.1f}")
     print(f"\n{'hop (100 Hz, median)':<58}{'default us':>12}{'low-lat us':>12}")
