@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from bus_schema import Spaces
-from services.experiments.walk import learned_gait, legged_robot, taught_walk_model, walk_alone, walk_spaces
+from services.experiments.walk import learned_gait, taught_walk_model, walk_alone, walk_spaces
 from services.platforms.aibo.gait import TrotGait
 from services.platforms.aibo.platform import LEGS_BOX, MOVE_BOX, PHASE_BOX
 from services.teachers.trot import TrotTeacher
@@ -34,8 +34,7 @@ def test_the_learned_gait_turns_45_degrees_each_way_in_ten_seconds(learned, dire
 
 
 def test_the_trot_teacher_is_the_gait_as_a_function_of_command_and_phase():
-    with legged_robot() as robot:
-        spaces = walk_spaces(robot)
+    spaces = walk_spaces()
     assert spaces.input.names == ("forward", "turn", "phase_sin", "phase_cos") and spaces.output == LEGS_BOX
     teacher, gait = TrotTeacher(spaces), TrotGait()
     for phase in (0.0, 0.3, 0.75):
@@ -50,8 +49,7 @@ def test_the_trot_teacher_is_the_gait_as_a_function_of_command_and_phase():
 def test_the_trot_teacher_names_what_its_spaces_lack():
     with pytest.raises(ValueError, match="missing phase_sin, phase_cos"):
         TrotTeacher(Spaces(MOVE_BOX, LEGS_BOX))
-    with legged_robot() as robot:
-        walk_input = walk_spaces(robot).input
+    walk_input = walk_spaces().input
     with pytest.raises(ValueError, match="answers 12 leg joint targets, but the output space has 2"):
         TrotTeacher(Spaces(walk_input, PHASE_BOX))
 

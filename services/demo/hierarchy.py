@@ -10,12 +10,11 @@ from pathlib import Path
 from services.demo.ballseek import LiveStage
 from services.demo.live import REPO, BusRecorder, LiveRun
 from services.experiments import ballseek_protocol as protocol
-from services.experiments.ballseek import ball_spot
+from services.experiments.hierarchy import EPISODE_SECONDS
 
 PROFILE = REPO / "deploy" / "hierarchy.toml"
 SEEK, WALK = "seek", "walk"
 SEEK_RATE_HZ = 15.0  # the seek level's ticks: the camera's frames, in simulated time
-EPISODE_SECONDS = 20.0
 
 
 def profile_in(run_dir: Path) -> Path:
@@ -58,18 +57,11 @@ def start_hierarchy(run_dir: Path, endpoint: str) -> tuple[LiveRun, BusRecorder]
 def teach_both(stage: TwoLevelStage, seconds: float, seed: int) -> None:
     """Both teachers on for `seconds`, a fresh arena and ball spot each time the ball is reached or
     after 15 s; the teachers off at the end."""
-    rng, start = protocol.phase_rng(seed, "teach"), stage.clock
-    while stage.clock - start < seconds:
-        arena = protocol.arena_seed(rng)
-        left = seconds - (stage.clock - start)
-        stage.episode(arena, {"pink": ball_spot(rng, arena=arena)}, min(protocol.TEACHING_EPISODE_SECONDS, left),
-                      True, "pink")
+    protocol.teach(stage, True, seconds, seed)
     stage.switch(False)
 
 
-def seek_alone(stage: TwoLevelStage, episodes: int, seed: int, teaching: bool = False) -> list[float | None]:
-    """`episodes` of EPISODE_SECONDS with the pink ball in view: the time each reached it, or None.
-    teaching=True: the two hand-coded teachers drive instead (the benchmark's reference)."""
-    results = protocol.episodes(stage, seed, "episodes", episodes, EPISODE_SECONDS, "pink", teaching=teaching)
-    stage.switch(False)
-    return results
+def seek_alone(stage: TwoLevelStage, episodes: int, seed: int) -> list[float | None]:
+    """`episodes` of EPISODE_SECONDS with the pink ball in view, the two students alone: the time
+    each reached it, or None."""
+    return protocol.episodes(stage, seed, "episodes", episodes, EPISODE_SECONDS, "pink")

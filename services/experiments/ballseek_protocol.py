@@ -47,9 +47,9 @@ def arena_seed(rng: np.random.Generator) -> int:
     return int(rng.integers(1_000_000))
 
 
-def teach(stage: Stage, user: ScriptedUser, seconds: float, seed: int) -> None:
-    """`seconds` over fresh arenas with only the pink ball; the teacher is on when the user says. A
-    new arena and ball spot each time the ball is reached or after 15 s."""
+def teach(stage: Stage, user: Teaching, seconds: float, seed: int) -> None:
+    """`seconds` over fresh arenas with only the pink ball; the teacher is on when the user says
+    (True: throughout). A new arena and ball spot each time the ball is reached or after 15 s."""
     rng, start = phase_rng(seed, "teach"), stage.clock
     while stage.clock - start < seconds - 1e-9:
         arena = arena_seed(rng)

@@ -14,16 +14,16 @@ import numpy as np
 from bus_schema import Spaces
 from services.boxes.chain import Easing
 from services.experiments import ballseek_protocol as protocol
-from services.experiments.ballseek import BallWorld, ball_spot
+from services.experiments.ballseek import BallWorld
 from services.experiments.ballseek_protocol import WorldStage
 from services.experiments.loop import tick
-from services.experiments.walk import EASE_S, WALK_RATE_HZ, joint_rms, movement_box, walk_spaces
+from services.experiments.walk import EASE_S, WALK_RATE_HZ, joint_rms, walk_spaces
 from services.experiments.wiring import wired_learner
 from services.learners import make_learner
-from services.platforms.aibo.platform import AiboPlatform
+from services.platforms.aibo.platform import MOVE_BOX, AiboPlatform
 from services.teachers.trot import TrotTeacher
 
-EPISODE_SECONDS = 20.0  # as the live test (services/demo/hierarchy.py)
+EPISODE_SECONDS = 20.0  # one episode with the ball, in process and live (services/demo/hierarchy.py)
 
 
 class LegsUnderMovement:
@@ -32,8 +32,8 @@ class LegsUnderMovement:
 
     def __init__(self, seed: int, walk_learner, teaching: bool = False):
         self.robot = AiboPlatform(seed=seed, command="legs", inputs="phase")
-        self.walk = walk_spaces(self.robot)
-        self.spaces = Spaces(self.robot.spaces.input, movement_box(self.robot), dict(self.robot.spaces.extra))
+        self.walk = walk_spaces()
+        self.spaces = Spaces(self.robot.spaces.input, MOVE_BOX, dict(self.robot.spaces.extra))
         self.learner, self.teaching = walk_learner, teaching
         self.trot, self.stand = TrotTeacher(self.walk), TrotTeacher(self.walk, stand=True)
         self.modes = collections.Counter()  # the walk level's decisions
@@ -80,45 +80,31 @@ class TwoLevelResult:
         return float(np.mean([r is not None for r in self.reach_times]))
 
 
-def _teach(stage: WorldStage, seconds: float, seed: int) -> None:
-    """The teacher(s) on for `seconds` while the pink ball is put down in fresh arenas."""
-    rng, start = protocol.phase_rng(seed, "teach"), stage.clock
-    while stage.clock - start < seconds - 1e-9:
-        arena = protocol.arena_seed(rng)
-        left = seconds - (stage.clock - start)
-        stage.episode(arena, {"pink": ball_spot(rng, arena=arena)}, min(protocol.TEACHING_EPISODE_SECONDS, left),
-                      True, "pink")
-
-
 def run_two_levels(seed: int, teach_s: float = 90.0, n_episodes: int = 10, chained: bool = True,
                    students: bool = True) -> TwoLevelResult:
     """chained: seeking over the walk level (else over the hand-coded gait: the flat robot). students:
     both levels taught for `teach_s` at once, then alone; else the hand-coded teachers drive the episodes."""
     seek_name, seek_params = wired_learner("hierarchy", "seek")
     walk_name, walk_params = wired_learner("hierarchy", "walk")
-    walk_learner = None
+    legs = walk_learner = None
     if chained:
-        probe = AiboPlatform(seed=seed, command="legs", inputs="phase", camera=False)
-        spaces = walk_spaces(probe)
-        probe.close()
+        spaces = walk_spaces()
         walk_learner = make_learner(walk_name, spaces.input.dims, spaces.output.dims, seed=seed, **walk_params)
         legs = LegsUnderMovement(seed, walk_learner, teaching=True)
-        world = BallWorld(seed, platform=legs)
-    else:
-        legs, world = None, BallWorld(seed)
+    world = BallWorld(seed, platform=legs)  # no legs: the Aibo in "move" mode, the hand-coded gait
     seek_learner = make_learner(seek_name, world.spaces.input.dims, world.spaces.output.dims, seed=seed,
                                 **seek_params)
     stage = WorldStage(world, seek_learner, world.make_teacher())
     try:
         if students:
-            _teach(stage, teach_s, seed)
+            protocol.teach(stage, True, teach_s, seed)
+        taught = legs.taught_ticks / WALK_RATE_HZ if legs is not None else 0.0
         if legs is not None:
-            legs.teaching, taught = not students, legs.taught_ticks / WALK_RATE_HZ
+            legs.teaching = not students
             legs.modes.clear()
         reach = protocol.episodes(stage, seed, "episodes", n_episodes, EPISODE_SECONDS, "pink",
                                   teaching=not students)
         rms = joint_rms(walk_learner, seed=seed) if (legs is not None and students) else float("nan")
-        return TwoLevelResult(reach, taught if legs is not None and students else 0.0, rms,
-                              dict(legs.modes) if legs is not None else {})
+        return TwoLevelResult(reach, taught, rms, dict(legs.modes) if legs is not None else {})
     finally:
         world.close()

@@ -9,10 +9,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bus_schema import Box, Spaces
+from bus_schema import Spaces
 from services.boxes.chain import Easing, lower_spaces
 from services.learners import DEFAULT_LEARNER, Learner, make_learner
-from services.platforms.aibo.platform import PHASE_BOX, AiboPlatform
+from services.platforms.aibo.platform import LEGS_BOX, MOVE_BOX, PHASE_BOX, AiboPlatform
 from services.teachers.trot import TrotTeacher
 
 WALK_RATE_HZ = 60.0  # the walk level's ticks: at 50 Hz this trot's forward walk lost half its reach
@@ -27,24 +27,21 @@ class Walked:
     lowest_upright: float  # the body's worst tilt cosine (1 level, 0 on its side)
 
 
-def movement_box(robot: AiboPlatform) -> Box:
-    return Box.from_dict(robot.spaces.extra["movement"])
-
-
-def walk_spaces(robot: AiboPlatform) -> Spaces:
-    """The walk level's spaces: the movement asked of the robot, then its gait clock -> 12 legs."""
-    upper = Spaces(PHASE_BOX, movement_box(robot))  # only its output matters
-    return lower_spaces(upper, robot.spaces, robot.spaces)
+def walk_spaces() -> Spaces:
+    """The walk level's spaces as the chain builds them from the legged robot's (input the gait clock,
+    output the legs; it offers MOVE_BOX): the movement asked, then the gait clock -> 12 legs."""
+    robot = Spaces(PHASE_BOX, LEGS_BOX)
+    return lower_spaces(Spaces(PHASE_BOX, MOVE_BOX), robot, robot)  # the upper's output is the movement
 
 
 def legged_robot(seed: int = 0) -> AiboPlatform:
     return AiboPlatform(seed=seed, command="legs", camera=False, inputs="phase")
 
 
-def asked_movements(seed: int, movement_box):
+def asked_movements(seed: int):
     """A handler's requests: a new movement every ASK_EVERY_S, each axis still 30 % of the time."""
     rng = np.random.default_rng(seed)
-    low, high = np.asarray(movement_box.low), np.asarray(movement_box.high)
+    low, high = np.asarray(MOVE_BOX.low), np.asarray(MOVE_BOX.high)
     while True:
         asked = rng.uniform(low, high)
         asked[rng.random(2) < 0.3] = 0.0
@@ -55,8 +52,7 @@ def teach_walk(model: Learner, seconds: float, seed: int = 0) -> int:
     """The trot teaches `model` while walking the robot for `seconds` of simulated time; returns pairs."""
     dt, pairs = 1.0 / WALK_RATE_HZ, 0
     with legged_robot(seed) as robot:
-        spaces = walk_spaces(robot)
-        teacher, asks = TrotTeacher(spaces), asked_movements(seed, movement_box(robot))
+        teacher, asks = TrotTeacher(walk_spaces()), asked_movements(seed)
         phase, per_ask = robot.observe(), round(ASK_EVERY_S * WALK_RATE_HZ)
         eased = Easing(np.zeros(2), EASE_S)
         for tick in range(round(seconds * WALK_RATE_HZ)):
@@ -91,8 +87,7 @@ def learned_gait(model: Learner):
 
 
 def taught_walk_model(seconds: float, seed: int = 0, learner: str = DEFAULT_LEARNER) -> Learner:
-    with legged_robot(seed) as robot:
-        spaces = walk_spaces(robot)
+    spaces = walk_spaces()
     model = make_learner(learner, spaces.input.dims, spaces.output.dims, seed=seed)
     teach_walk(model, seconds, seed)
     return model
@@ -100,11 +95,8 @@ def taught_walk_model(seconds: float, seed: int = 0, learner: str = DEFAULT_LEAR
 
 def joint_rms(model: Learner, samples: int = 2000, seed: int = 0) -> float:
     """The learned gait against the trot on the same inputs: movements and phases drawn at random."""
-    with legged_robot(seed) as robot:
-        spaces = walk_spaces(robot)
-        movement = movement_box(robot)
-    teacher, rng = TrotTeacher(spaces), np.random.default_rng(seed + 1)
-    low, high = np.asarray(movement.low), np.asarray(movement.high)
+    teacher, rng = TrotTeacher(walk_spaces()), np.random.default_rng(seed + 1)
+    low, high = np.asarray(MOVE_BOX.low), np.asarray(MOVE_BOX.high)
     errors = []
     for _ in range(samples):
         angle = rng.uniform(0, 2 * np.pi)

@@ -30,12 +30,13 @@ class TrotTeacher:
                              f"has {spaces.output.dims} ({', '.join(spaces.output.names)})")
         if not isinstance(stand, bool):
             raise ValueError(f"stand must be true or false, got {stand!r}")
-        self.spaces, self.gait, self.stand = spaces, TrotGait(**gait_params), stand
+        self.spaces, self.gait = spaces, TrotGait(**gait_params)
+        self.standing = spaces.output.clip(self.gait.stand_pose()) if stand else None  # whatever the phase
         self.at = [names.index(name) for name in INPUT_NAMES]
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
+        if self.standing is not None:
+            return self.standing.copy(), 1.0
         forward, turn, sin, cos = (float(x[i]) for i in self.at)
-        if self.stand:
-            forward = turn = 0.0
         phase = (np.arctan2(sin, cos) / (2 * np.pi)) % 1.0
         return self.spaces.output.clip(self.gait.pose_at(forward, turn, phase)), 1.0

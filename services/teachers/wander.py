@@ -23,7 +23,8 @@ class WanderTeacher:
         self.spaces, self.every, self.still, self.clock = spaces, float(every), float(still), clock
         self.rng = np.random.default_rng(seed)
         self.low, self.high = np.asarray(spaces.output.low), np.asarray(spaces.output.high)
-        self.until, self.y = -np.inf, (self.low + self.high) / 2.0
+        self.middle = (self.low + self.high) / 2.0
+        self.until, self.y = -np.inf, self.middle
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray | None, float]:
         now = self.clock()
@@ -31,5 +32,5 @@ class WanderTeacher:
             self.until = now + self.every
             y = self.rng.uniform(self.low, self.high)
             held = self.rng.random(len(y)) < self.still
-            self.y = np.where(held, (self.low + self.high) / 2.0, y)
+            self.y = np.where(held, self.middle, y)
         return self.y.copy(), 1.0

@@ -51,6 +51,7 @@ class AiboPlatform:
             extra["gait_period_s"] = self.sim.gait.period
         self.spaces = Spaces(input=JOINTS_BOX if inputs == "joints" else PHASE_BOX, output=OUTPUT_BOXES[command],
                              extra=extra)
+        self._rest = neutral_pose(self.sim.gait)  # "legs": the head and tail stay here
         self._holding = False
         # a walking robot's watchdog puts its feet down (on four paws after 0.22-0.30 s, docs/aibo.md)
         self.hold_settle_seconds = 0.0 if command == "joints" else 0.5
@@ -78,7 +79,7 @@ class AiboPlatform:
         if self.command == "joints":
             applied = self.sim.set_joint_targets(command)
         elif self.command == "legs":
-            pose = neutral_pose(self.sim.gait)
+            pose = self._rest.copy()
             pose[LEG_SLICE] = command
             applied = self.sim.set_joint_targets(pose)[LEG_SLICE]
         else:
