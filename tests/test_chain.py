@@ -3,7 +3,7 @@ import time
 
 import numpy as np
 
-from bus_schema import Command, Input, SpacesMessage, decode
+from bus_schema import Command, Input, SpacesMessage, decode, encode
 from services.bus.queries import ask_owner
 from tests.harness import Probe, dogged, dogged_ok, stop
 
@@ -129,3 +129,31 @@ def test_chain_clock_extra_keeps_the_extra_ticks_and_stands_when_the_upper_stops
     finally:
         probe.close()
         assert stop(*upper, *lower) == [0] * (len(upper) + len(lower))
+
+
+def test_chain_clips_forged_values_into_the_spaces_it_declares(router, tmp_path):
+    """A command outside the upper's output space, or an extra sample outside its input space, comes
+    from a forger or a broken sender: the lower level would learn from an input no one can ask for. The
+    chain clips both into the spaces it declares and counts them; a non-finite one is rejected."""
+    c = ["--connect", router]
+    procs = [dogged("run", "platform", "--instance", "up", "--param", "dims=2", "--rate", "1", *c,
+                    log=tmp_path / "platform.log"),  # answers the spaces; no arbitrator, so it sends no input
+             dogged("run", "chain", "--upper", "up", "--lower", "low", "--consumer-spaces", "dl/up/spaces",
+                    "--extra", "up", *c, log=tmp_path / "chain.log")]
+    probe = Probe(router)
+    try:
+        lower = probe.record("dl/low/input")
+        probe.wait_for(lambda: probe.state("chain/chain", "upper") == "up", 60, "the chain")
+        probe.put("dl/up/input", encode(Input(7, time.time(), np.array([0.5, 9.0, -1e9, 0.0]))))
+        probe.wait_for(lambda: probe.counter("chain/chain", "clipped_extra") >= 1, 10, "the extra clipped")
+        probe.put("dl/up/command", encode(Command(7, time.time(), np.array([1e6, 0.25]), "teacher", "forger", 1.0)))
+        probe.put("dl/up/command", encode(Command(8, time.time(), np.array([np.nan, 0.0]), "teacher", "forger", 1.0)))
+        probe.wait_for(lambda: len(lower) >= 1 and probe.counter("chain/chain", "rejected") >= 1, 10,
+                       "the forged command relayed clipped, the NaN one rejected")
+        relayed = [decode(Input, raw, k, {"x": 6}) for k, raw, _ in lower]
+        assert [m.tick for m in relayed] == [7]
+        assert np.array_equal(relayed[0].x, [1.0, 0.25, 0.5, 1.0, -1.0, 0.0]), relayed[0].x
+        assert probe.counter("chain/chain", "clipped_upper") == 1
+    finally:
+        probe.close()
+        assert stop(*procs) == [0] * len(procs)

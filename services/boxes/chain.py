@@ -52,6 +52,15 @@ class Easing:
         return self.value
 
 
+def clip_counted(box: Box, values: np.ndarray, counts: collections.Counter, name: str) -> np.ndarray:
+    """`values` clipped to `box`, counted under `name` when that changed them: the upper's arbitrator
+    only sends commands in its output space, so anything outside was forged or broken, and the lower
+    level would learn from an input no one can ask for."""
+    clipped = box.clip(values)
+    counts[name] += bool(np.any(clipped != values))
+    return clipped
+
+
 def lower_spaces(upper: Spaces, consumer: Spaces, extra: Spaces | None) -> Spaces:
     box = upper.output
     if extra is not None:
@@ -94,7 +103,7 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                 elif tag == "extra":
                     msg = decode_or_reject(Input, raw, key, rejects, {"x": len(latest_extra)})
                     if msg is not None:
-                        latest_extra = msg.x
+                        latest_extra = clip_counted(extra_spaces.input, msg.x, counts, "clipped_extra")
                         if clock == "extra":
                             now = time.monotonic()
                             fresh = now - latest_up_at <= hold_s
@@ -107,11 +116,12 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                     msg = decode_or_reject(Command, raw, key, rejects, {"y": n_up})
                     if msg is None:
                         continue
+                    y = clip_counted(upper_spaces.output, msg.y, counts, "clipped_upper")
                     if clock == "extra":
-                        latest_up, latest_up_at = msg.y, time.monotonic()
+                        latest_up, latest_up_at = y, time.monotonic()
                         counts["upper_commands"] += 1
                     else:
-                        pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([msg.y, latest_extra]))))
+                        pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([y, latest_extra]))))
                         counts["relayed"] += 1
             status.maybe_publish(lambda: (dict(counts, rejected=rejects.total), {"upper": upper, "lower": lower}))
         del held
