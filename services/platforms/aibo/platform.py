@@ -81,7 +81,9 @@ class AiboPlatform:
         elif self.command == "legs":
             pose = self._rest.copy()
             pose[LEG_SLICE] = command
-            applied = self.sim.set_joint_targets(pose)[LEG_SLICE]
+            # ramped over the tick: a learned gait's targets held for a 60 Hz tick walk worse than the
+            # same targets moved smoothly (docs/aibo.md, "Walking")
+            applied = self.sim.set_joint_targets(pose, ramp_s=dt)[LEG_SLICE]
         else:
             applied = self.sim.set_movement(*command)
         self._holding = False

@@ -81,6 +81,7 @@ class AiboSim:
         self._mode, self._stopping = "joints", False
         self._movement = np.zeros(2)
         self._targets = neutral_pose(self.gait)
+        self._ramp_from, self._ramp_steps, self._ramp_done = self._targets, 0, 0
         self._handled_mask = np.zeros(len(JOINT_NAMES), dtype=bool)
         self._handled_q = self._targets.copy()
         self.set_ear_mode(None)
@@ -106,9 +107,13 @@ class AiboSim:
 
     # ---- commands -------------------------------------------------------------------------------
 
-    def set_joint_targets(self, q) -> np.ndarray:
+    def set_joint_targets(self, q, ramp_s: float = 0.0) -> np.ndarray:
         """Aim all 18 motors (radians, clipped to the limits); returns the targets applied,
-        with handled joints showing the handler's value, since that is what they follow."""
+        with handled joints showing the handler's value, since that is what they follow.
+        ramp_s > 0: move the aim from where it is to q over ramp_s seconds (a first-order hold, as a
+        servo controller does between the set points of a slower loop) instead of jumping to q."""
+        self._ramp_from = self._aim()
+        self._ramp_steps, self._ramp_done = max(0, round(ramp_s * self.physics_hz)), 0
         self._targets = np.clip(np.asarray(q, dtype=np.float64), JOINT_LIMITS[:, 0], JOINT_LIMITS[:, 1])
         self._mode = "joints"
         return np.where(self._handled_mask, self._handled_q, self._targets)
@@ -130,6 +135,7 @@ class AiboSim:
         where they are (a trot frozen mid-stride stands on two diagonal paws, rocks and slides).
         stand=True: the legs go to the standing pose (a robot whose legs a learned gait moved)."""
         self._targets = self.joint_positions()
+        self._ramp_steps = 0
         if stand:
             self._targets[LEG_SLICE] = self.gait.stand_pose()
         if self._mode == "move":
@@ -148,7 +154,9 @@ class AiboSim:
     def _run(self, substeps: int) -> None:
         c, h = self._client, 1.0 / self.physics_hz
         for _ in range(max(substeps, 0)):
-            targets = self._targets.copy()
+            if self._ramp_done < self._ramp_steps:
+                self._ramp_done += 1
+            targets = self._aim()
             if self._mode == "move":
                 targets[LEG_SLICE] = self.gait.targets(*self._movement, h, STOP_SMOOTHING if self._stopping else None)
             targets = np.where(self._handled_mask, self._handled_q, targets)
@@ -157,6 +165,12 @@ class AiboSim:
                                         velocityGains=[VELOCITY_GAIN] * len(targets))
             c.stepSimulation()
             self._steps += 1
+
+    def _aim(self) -> np.ndarray:
+        """The joint targets now: the last ones set, or the way there while a ramp runs."""
+        if self._ramp_done >= self._ramp_steps:
+            return self._targets.copy()
+        return self._ramp_from + (self._targets - self._ramp_from) * (self._ramp_done / self._ramp_steps)
 
     @property
     def sim_time(self) -> float:
