@@ -23,6 +23,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["run"]:
         return run_box(argv[1:])
+    if argv[:1] == ["ui"]:
+        return run_box(argv)
     if argv[:1] == ["demo"]:
         from services.demo import cli as demo
         return demo(argv[1:])
@@ -54,6 +56,7 @@ def verbs_parser() -> argparse.ArgumentParser:
     add_certificate_args(parser)
     sub = parser.add_subparsers(dest="verb", required=True)
     sub.add_parser("run", help="run one box: dogged run <box> --help")
+    sub.add_parser("ui", help="a page in a browser to watch, teach and teleoperate the robot (dogged ui --help)")
     sub.add_parser("demo", help="the headline demo: ball seeking end to end (dogged demo --help)")
     sub.add_parser("replay", help="retrain learners on a recorded run and compare them (dogged replay --help)")
     sub.add_parser("play", help="publish a recorded run's inputs in place of the platform (dogged play --help)")

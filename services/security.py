@@ -14,6 +14,7 @@ lets each role say only its part, as the paper's Figure 1 draws it:
 | learner | publish learner proposals; answer snapshot and history; hold learner tokens |
 | arbitrator | publish commands and training pairs; answer recent pairs; hold commanding tokens |
 | operator (a person), supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor |
+| operator (a person, `dogged ui`) | also teach by teleoperation: teacher proposals and teaching tokens |
 | supervisor | answer the supervisor's verbs |
 
 The recorder owns nothing: it only listens and asks. Everything else (subscribing, status, querying
@@ -46,8 +47,11 @@ OWNERS = (
     ("robot streams", _PUT, [_R.state, _R.camera, _R.clock], ("platform",)),
     ("robot spaces", _ANSWER, [_R.spaces], ("platform",)),
     ("handle", _PUT, [_R.handle], ("handler",)),
-    ("teacher proposals", _PUT, [_I.proposal("teacher", "**"), _I.proposal("default", "**")], ("teacher",)),
-    ("teaching tokens", _TOKEN, [_I.teaching("**"), _I.alive("teacher", "**")], ("teacher",)),
+    # a person at the page (dogged ui, an operator) teaches by teleoperation: a teacher's proposals and token
+    ("teacher proposals", _PUT, [_I.proposal("teacher", "**")], ("teacher", "operator")),
+    ("default proposals", _PUT, [_I.proposal("default", "**")], ("teacher",)),
+    ("teaching tokens", _TOKEN, [_I.teaching("**")], ("teacher", "operator")),
+    ("teacher tokens", _TOKEN, [_I.alive("teacher", "**")], ("teacher",)),
     ("learner proposals", _PUT, [_I.proposal("learner", "**")], ("learner",)),
     ("learner state", _ANSWER, [_I.snapshot("*"), _I.history("*")], ("learner",)),
     ("learner tokens", _TOKEN, [_I.alive("learner", "**")], ("learner",)),

@@ -4,4 +4,4 @@ BOX_ROLES is the one list of them: the role each one's certificate carries (serv
 """
 BOX_ROLES = {"router": "router", "platform": "platform", "aibo": "platform", "demonstrator": "teacher",
              "learner": "learner", "arbitrator": "arbitrator", "perception": "perception", "handler": "handler",
-             "chain": "chain", "recorder": "recorder"}
+             "chain": "chain", "recorder": "recorder", "ui": "operator"}

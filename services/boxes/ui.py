@@ -1,0 +1,100 @@
+"""The ui box (`dogged ui`): a page in a browser where a person watches, teaches, corrects and
+teleoperates the robot (services/ui). On loopback it needs no login; on any other address the
+page's socket needs the token printed at start."""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import secrets
+import sys
+import threading
+
+import zenoh
+
+from bus_schema import InstanceKeys, check_name
+from services.boxes.common import fetch_spaces
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.publishers import StatusPublisher
+from services.security import is_loopback
+from services.ui.bridge import FRAME_HEADER, Bridge
+from services.ui.server import UiServer
+from services.ui.teleop import TELEOP_REFRESH_S
+
+
+def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, port: int, name: str = "ui") -> int:
+    log = setup_logging("ui", name)
+    stop, keys, done = StopFlag(), InstanceKeys(instance), threading.Event()
+    token = None if is_loopback(f"tcp/{host}:{port}") else secrets.token_urlsafe(18)
+    with zenoh.open(conf) as session:
+        spaces = fetch_spaces(session, keys, stop, log)
+        if spaces is None:
+            return 0
+        out = spaces.output
+        hello = {"version": 1, "instance": instance, "robot": robot, "person": person,
+                 "outputs": {"names": list(out.names), "units": list(out.units), "low": list(out.low),
+                             "high": list(out.high)},
+                 "inputs": {"names": list(spaces.input.names)}, "frame_header_bytes": FRAME_HEADER.size,
+                 "teleop_refresh_ms": round(TELEOP_REFRESH_S * 1000)}
+        server = UiServer(None, hello, host, port, token, log)
+        bridge = Bridge(session, instance, robot, person, spaces, server.emit, log)
+        server.bridge, bridge.server_counts = bridge, server.counts
+        alive = session.liveliness().declare_token(keys.alive("ui", name))
+        bridge.status = StatusPublisher(session, keys.status("ui", name), "ui", name)
+        bus = threading.Thread(target=bridge.run, args=(done,), name="bus", daemon=True)
+        bus.start()
+
+        def listening(port_now: int) -> None:
+            address = f"http://{'localhost' if host == '127.0.0.1' else host}:{port_now}/"
+            bridge.url = address
+            where = f"{address}?token={token}" if token else address
+            log.info("the page: %s (instance %s, robot %s; teleoperation as teacher %s)", where, instance, robot,
+                     person)
+            if token:  # the one place the token is shown: whoever opens the page needs it
+                print(f"dogged ui: open {where}", file=sys.stderr, flush=True)
+
+        async def serve():
+            watcher = asyncio.create_task(_watch(stop, done))
+            await server.serve(done, listening)
+            watcher.cancel()
+        try:
+            asyncio.run(serve())
+        except OSError as err:
+            log.error("cannot serve the page on %s:%d: %s", host, port, err)
+            done.set()
+            bus.join(2.0)
+            return 2
+        done.set()
+        bus.join(2.0)
+        alive.undeclare()
+    return 0
+
+
+async def _watch(stop: StopFlag, done: threading.Event) -> None:
+    while not stop and not done.is_set():
+        await asyncio.sleep(0.1)
+    done.set()
+
+
+def cli(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="dogged ui", description=__doc__.splitlines()[0])
+    parser.add_argument("--instance", default="main", help="the DL instance the page shows and teaches")
+    parser.add_argument("--robot", default="aibo", help="whose camera, state and arena the page shows")
+    parser.add_argument("--person", default="person",
+                        help="the teacher name the person's teleoperation proposes as (teacher/<person>)")
+    parser.add_argument("--http", default="127.0.0.1:8080", metavar="HOST:PORT",
+                        help="where the page is served (loopback: no login; elsewhere a token is printed); a taken "
+                             "port gives way to the next free one of ten")
+    parser.add_argument("--name", default="ui")
+    add_bus_args(parser)
+    a = parser.parse_args(argv)
+    host, _, port = a.http.rpartition(":")
+    if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        parser.error(f"--http must be HOST:PORT, e.g. 127.0.0.1:8080, got {a.http!r}")
+    for field, value in (("--person", a.person), ("--name", a.name), ("--instance", a.instance),
+                         ("--robot", a.robot)):
+        try:
+            check_name(field, value)
+        except ValueError as err:
+            parser.error(str(err))
+    return main(config_from_args(a), a.instance, a.robot, a.person, host.strip("[]"), int(port), a.name)

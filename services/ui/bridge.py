@@ -1,0 +1,225 @@
+"""The UI's side of the bus: one thread, one Zenoh session, as every box has.
+
+It listens (commands, proposals, status and liveliness of every service, the robot's camera and
+state, the instance's inputs) and keeps a view the page is sent ten times a second; it acts for the
+person (teach switches, teleoperation as a teacher, learner swap, arena reset). Zenoh callbacks only
+append to the inbox; the page's requests come in through the same inbox, so one thread decodes,
+validates and acts. What it has for the page goes out through `emit(kind, payload)`, which must
+not block (the server hands it to its event loop).
+"""
+from __future__ import annotations
+
+import collections
+import logging
+import math
+import re
+import struct
+import threading
+import time
+
+import numpy as np
+import zenoh
+
+from bus_schema import (ArenaReset, Command, ControlReply, Frame, InstanceKeys, Input, Proposal, RobotKeys, RobotState,
+                        SchemaError, Spaces, Status, TeachSwitch, decode, encode, supervisor_key, supervisor_token)
+from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
+from services.bus.inbox import Inbox, Rejects, decode_or_reject
+from services.bus.publishers import lossless_publisher
+from services.bus.queries import ask_owner
+from services.ui.teleop import Teleop
+
+VIEW_PERIOD_S = 0.1  # the page's view of the system, ten times a second
+SERIES_HZ = 20  # points of the confidence / error plot per second at most
+FRAME_HEADER = struct.Struct("<qd")
+MAX_SERVICES = 256  # a bus flooded with made-up tokens does not grow the page without bound
+_NAME = re.compile(r"^[a-z0-9][a-z0-9_-]{0,63}$")
+_RATE = re.compile(r"^[a-z0-9_]{1,40}$")  # tick, stamp: before each JPEG sent to the page
+
+
+class Bridge:
+    def __init__(self, session: zenoh.Session, instance: str, robot: str, person: str, spaces: Spaces, emit,
+                 log: logging.Logger):
+        self.session, self.keys, self.robot = session, InstanceKeys(instance), RobotKeys(robot)
+        self.spaces, self.emit, self.log = spaces, emit, log
+        self.inbox, self.rejects, self.counts = Inbox(), Rejects(log), collections.Counter()
+        self.teleop = Teleop(session, self.keys, person, spaces.output, log)
+        self.teach_pub = lossless_publisher(session, self.keys.teach)
+        self.arena_pub = lossless_publisher(session, self.robot.arena)
+        self.latest: dict = {}  # the newest command, as the page shows it
+        self.learner_y: collections.OrderedDict[int, np.ndarray] = collections.OrderedDict()
+        self.series: list = []  # new plot points since the last view
+        self.services: dict[str, dict] = {}  # "instance/role/name" -> alive, rates, state
+        self.robot_state: dict = {}
+        self.t0, self._next_point, self._next_view = time.monotonic(), 0.0, 0.0
+        self._half_range = np.maximum((np.asarray(spaces.output.high) - np.asarray(spaces.output.low)) / 2, 1e-12)
+        self._held = []
+        self.status = None  # a StatusPublisher, once the box has one
+        self.url = ""  # where the page is served, once it is
+        self.server_counts = lambda: {}  # the server's own (pages open, requests refused), for the status
+
+    # --- wiring ---------------------------------------------------------------------------------
+    def declare(self) -> None:
+        s, cb = self.session, self.inbox.callback
+        self._held = [s.declare_subscriber(self.keys.command, cb("command")),
+                      s.declare_subscriber(self.keys.proposal("learner", "*"), cb("learner")),
+                      s.declare_subscriber(self.keys.input, cb("input")),
+                      s.declare_subscriber(EVERY_STATUS, cb("status")),
+                      s.declare_subscriber(self.robot.camera, cb("frame")),
+                      s.declare_subscriber(self.robot.state, cb("robot")),
+                      s.liveliness().declare_subscriber(EVERY_ALIVE, cb("alive"), history=True)]
+
+    def request(self, op: str, fields: dict, reply) -> None:
+        """From the server's thread: a checked page request; `reply(text, ok)` answers that page."""
+        self.inbox.put(("page", op, (fields, reply), None))
+
+    def run(self, stop: threading.Event) -> None:
+        self.declare()
+        handlers = {"command": self.on_command, "learner": self.on_learner, "input": self.on_input,
+                    "status": self.on_status, "frame": self.on_frame, "robot": self.on_robot, "alive": self.on_alive}
+        while not stop.is_set():
+            for tag, key, raw, kind in self.inbox.drain(0.02):
+                if tag == "page":
+                    self.on_page(key, *raw)
+                else:
+                    handlers[tag](key, raw, kind)
+            self.teleop.expire()
+            self.maybe_view()
+            if self.status is not None:
+                self.status.maybe_publish(self.report)
+        self.teleop.let_go()
+
+    # --- what the bus says ------------------------------------------------------------------------
+    def on_command(self, key, raw, _):
+        msg = decode_or_reject(Command, raw, key, self.rejects, {"y": self.spaces.output.dims})
+        if msg is None:
+            return
+        self.counts["commands"] += 1
+        self.latest = {"tick": msg.tick, "mode": msg.mode, "source": msg.source,
+                       "confidence": round(msg.confidence, 4), "y": [round(v, 4) for v in msg.y.tolist()]}
+        now = time.monotonic()
+        if now < self._next_point:
+            return
+        self._next_point = now + 1.0 / SERIES_HZ
+        learned = self.learner_y.get(msg.tick)
+        error = None  # the student against the teacher, while a teacher speaks (RMS over half ranges)
+        if msg.mode == "teacher" and learned is not None:
+            error = round(float(np.sqrt(np.mean(((learned - msg.y) / self._half_range) ** 2))), 4)
+        self.series.append([round(now - self.t0, 3), round(msg.confidence, 4), error, msg.mode])
+
+    def on_learner(self, key, raw, _):
+        msg = decode_or_reject(Proposal, raw, key, self.rejects, {"y": self.spaces.output.dims})
+        if msg is not None and msg.y is not None:
+            self.learner_y[msg.tick] = msg.y
+            while len(self.learner_y) > 256:
+                self.learner_y.popitem(last=False)
+
+    def on_input(self, key, raw, _):
+        msg = decode_or_reject(Input, raw, key, self.rejects, {"x": self.spaces.input.dims})
+        if msg is not None:
+            self.teleop.on_tick(msg.tick)
+
+    def on_status(self, key, raw, _):
+        msg = decode_or_reject(Status, raw, key, self.rejects)
+        if msg is None or not self._named(key, key.split("/")[1], msg.role, msg.name):
+            return
+        instance = key.split("/")[1]
+        entry = self.services.setdefault(f"{instance}/{msg.role}/{msg.name}", {"alive": False})
+        rates = msg.state.get("rates", {})
+        entry.update(pid=msg.pid, host=str(msg.state.get("host", ""))[:64], seen=time.monotonic(),
+                     rates={k: v for k, v in list(rates.items())[:16] if isinstance(k, str) and _RATE.match(k)
+                            and isinstance(v, (int, float)) and math.isfinite(v)}
+                     if isinstance(rates, dict) else {})
+
+    def on_alive(self, key, _raw, kind):
+        parts = key.split("/")  # dl/<instance>/alive/<role>/<name>
+        if len(parts) != 5:
+            return
+        instance, role, name = parts[1], parts[3], parts[4]
+        if not self._named(key, instance, role, name):
+            return
+        if role in ("teaching", "commanding"):
+            role = f"{role}-token"
+        entry = self.services.setdefault(f"{instance}/{role}/{name}", {"alive": False})
+        entry["alive"] = kind == zenoh.SampleKind.PUT
+        entry["changed"] = time.monotonic()
+
+    def _named(self, key: str, instance: str, role: str, name: str) -> bool:
+        """Names the page shows are the bus's checked names (a key may hold other characters)."""
+        known = any(f"{instance}/{r}/{name}" in self.services for r in (role, f"{role}-token"))
+        if all(_NAME.match(n) for n in (instance, role, name)) and (known or len(self.services) < MAX_SERVICES):
+            return True
+        self.rejects(key, ValueError(f"{key[:120]!r}: not instance/role/name of checked names, or more than "
+                                     f"{MAX_SERVICES} services"))
+        return False
+
+    def on_frame(self, key, raw, _):
+        msg = decode_or_reject(Frame, raw, key, self.rejects)
+        if msg is not None:
+            self.counts["frames"] += 1
+            self.emit("frame", FRAME_HEADER.pack(msg.tick, msg.stamp) + msg.jpeg)
+
+    def on_robot(self, key, raw, _):
+        msg = decode_or_reject(RobotState, raw, key, self.rejects)
+        if msg is not None:
+            balls = {str(n)[:32]: [round(float(v), 3) for v in xy[:2]] for n, xy in list(msg.balls.items())[:8]
+                     if isinstance(xy, (list, tuple)) and len(xy) >= 2}
+            self.robot_state = {"base": [round(float(v), 3) for v in msg.base.tolist()], "ear_mode": msg.ear_mode,
+                                "sim_time": round(msg.sim_time, 2), "balls": balls}
+
+    # --- what the page asks -------------------------------------------------------------------------
+    def on_page(self, op: str, fields: dict, reply) -> None:
+        self.counts[f"page_{op}"] += 1
+        if op == "teach":
+            self.teach_pub.put(encode(TeachSwitch(fields["teacher"], fields["on"])))
+            reply(f"teaching {'on' if fields['on'] else 'off'}: {fields['teacher'] or 'every teacher'}", True)
+        elif op == "teleop":
+            self.teleop.set(fields["y"])
+        elif op == "arena":
+            self.arena_pub.put(encode(ArenaReset(fields["seed"], fields["balls"])))
+            reply(f"arena {fields['seed']} asked", True)
+        elif op == "swap":
+            # the supervisor's answer takes up to minutes (a learner retrained): asked off this thread
+            threading.Thread(target=self._swap, args=(fields["service"], fields["spec"], reply), daemon=True).start()
+
+    def _swap(self, service: str, spec: str, reply) -> None:
+        profiles = sorted({str(r.ok.key_expr).split("/")[-1]
+                           for r in self.session.liveliness().get(supervisor_token("*"), timeout=2.0) if r.ok})
+        if len(profiles) != 1:
+            reply("no supervisor runs: start the system with `dogged up`" if not profiles
+                  else f"several profiles run ({', '.join(profiles)})", False)
+            return
+        key = supervisor_key(profiles[0], "swap")
+        payload, problem = ask_owner(self.session, f"{key}?service={service};spec={spec}", 180.0)
+        if payload is None:
+            reply(problem, False)
+            return
+        try:
+            answer = decode(ControlReply, payload, key)
+        except SchemaError as err:
+            reply(f"bad answer from the supervisor: {err}", False)
+            return
+        reply(answer.text, answer.ok)
+
+    def report(self) -> tuple[dict, dict]:
+        return (dict(self.counts, **self.server_counts(), rejected=self.rejects.total,
+                     teleop_proposals=self.teleop.proposals),
+                {"url": self.url, "person": self.teleop.person, "teleoperating": self.teleop.token is not None})
+
+    # --- the page's view ------------------------------------------------------------------------------
+    def maybe_view(self) -> None:
+        now = time.monotonic()
+        if now < self._next_view:
+            return
+        self._next_view = now + VIEW_PERIOD_S
+        mine = f"{self.keys.instance}/"
+        teachers = sorted({key.split("/")[2] for key, e in self.services.items()
+                           if key.startswith(mine) and key.split("/")[1] == "teacher" and e["alive"]})
+        teaching = sorted(key.split("/")[2] for key, e in self.services.items()
+                          if key.startswith(mine) and key.split("/")[1] == "teaching-token" and e["alive"])
+        services = [{"instance": key.split("/")[0], "role": key.split("/")[1], "name": key.split("/")[2],
+                     "alive": e["alive"], "rates": e.get("rates", {}), "host": e.get("host", "")}
+                    for key, e in sorted(self.services.items()) if not key.split("/")[1].endswith("-token")]
+        self.emit("view", {"type": "view", "command": self.latest, "series": self.series, "teachers": teachers,
+                           "teaching": teaching, "services": services, "robot": self.robot_state,
+                           "person": self.teleop.view(), "rejected": self.rejects.total})
+        self.series = []

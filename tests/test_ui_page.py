@@ -1,0 +1,147 @@
+"""The page (`dogged ui`) as a person sees it: Debian's chromium, headless, driven by Playwright, on
+deploy/ballseek.toml brought up by the supervisor (every box a process, real physics). The tests run
+in order on one live system; screenshots of each mode go to the run's folder."""
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from bus_schema import Command, TrainingPair, decode
+from services.demo.page import start_ballseek_with_page
+from services.ui.headless import open_page
+from tests.harness import Probe, free_port, wait_until
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("ui") / "run"
+    port = free_port()
+    run = start_ballseek_with_page(run_dir, f"tcp/127.0.0.1:{free_port()}", port)
+    held, probe = run.record(run.keys.train), Probe(run.endpoint)  # (the subscriber lives while held)
+    train = run.recorded[run.keys.train]
+    try:
+        with open_page(f"http://127.0.0.1:{port}/") as page:
+            page.wait_for_selector("#ears[data-mode]", timeout=30_000)
+            yield run, page, train, run_dir, probe
+    finally:
+        held.undeclare()
+        probe.close()
+        assert run.close() == 0
+
+
+def shot(page, run_dir, name):
+    path = run_dir / "screens" / f"{name}.png"
+    path.parent.mkdir(exist_ok=True)
+    page.screenshot(path=str(path), full_page=True)
+    print(f"screenshot: {path}")
+
+
+def ears(page) -> str:
+    return page.get_attribute("#ears", "data-mode")
+
+
+def test_page_loads_and_shows_the_services_and_the_robot_asking(live):
+    run, page, _, run_dir, _ = live
+    assert "instance main" in page.inner_text("#where")
+    wait_until(lambda: page.locator('tr[data-service="main/learner/learner"] td.alive').count() == 1, 10,
+               "the learner listed alive")
+    for role in ("aibo/aibo", "arbitrator/arbitrator", "teacher/seeker", "perception/perception"):
+        assert page.locator(f'tr[data-service="main/{role}"] td.alive').count() == 1, role
+    # untaught, the student is unsure: the ears are green and the page asks
+    wait_until(lambda: ears(page) == "unsure", 20, "the unsure ears")
+    assert "unsure" in page.inner_text("#ears-text")
+    shot(page, run_dir, "unsure")
+
+
+def test_teach_turns_the_ears_to_teacher_within_200_ms_and_the_camera_moves(live):
+    run, page, _, run_dir, _ = live
+    run.reset_arena(1, {"pink": [1.2, 0.4]})
+    time.sleep(1.0)
+    seen = len(run.recorded[run.keys.command])
+    page.click('button.toggle[data-teacher="seeker"]')
+    clicked = page.evaluate("window.doggedStats.clicks.at(-1)[1]") / 1000.0  # the page's own clock: the wall's
+    wait_until(lambda: any(decode(Command, raw, k).mode == "teacher"
+                           for k, raw, _ in run.recorded[run.keys.command][seen:]), 5, "a teacher command")
+    first = next(t for k, raw, t in run.recorded[run.keys.command][seen:] if decode(Command, raw, k).mode == "teacher")
+    print(f"click to the first teacher command on the bus: {1000 * (first - clicked):.0f} ms")
+    assert first - clicked < 0.2
+    wait_until(lambda: ears(page) == "teacher", 2, "the page's ears red")
+    before = page.locator("#camera").screenshot()
+    time.sleep(2.0)
+    after = page.locator("#camera").screenshot()
+    assert before != after, "the camera image changes while the robot walks"
+    frames = page.evaluate("window.doggedStats.frames.length")
+    assert frames >= 20, f"{frames} frames shown"
+    shot(page, run_dir, "teacher")
+    # teach until the student is sure of this arena, then let it drive
+    time.sleep(25.0)
+    page.click('button.toggle[data-teacher="seeker"]')
+    wait_until(lambda: ears(page) in ("student", "unsure"), 5, "the teacher off")
+    run.reset_arena(1, {"pink": [1.2, 0.4]})
+    wait_until(lambda: ears(page) == "student", 30, "the student driving")
+    shot(page, run_dir, "student")
+
+
+def test_holding_the_up_arrow_walks_the_robot_and_teaches_the_learner(live):
+    run, page, train, _, probe = live
+    run.reset_arena(2, {"pink": None, "orange": None})
+    time.sleep(1.0)
+    first_state = len(run.recorded[run.robot.state])
+    pairs_before, learned_before = len(train), probe.counter("learner/learner", "learned")
+    page.focus("body")
+    page.keyboard.down("ArrowUp")
+    time.sleep(4.0)
+    assert page.get_attribute("#key-up", "class").endswith("held")
+    page.keyboard.up("ArrowUp")
+    time.sleep(0.5)
+    # forward progress along the way (the student, turning as it searches for a ball, makes it a curve):
+    # each step's displacement along the heading, so the gait's sway cancels out
+    base = np.array([state.base for state in run.states(first_state)])
+    step, yaw = np.diff(base[:, :2], axis=0), base[:-1, 2]
+    moved = float(np.sum(step[:, 0] * np.cos(yaw) + step[:, 1] * np.sin(yaw)))
+    mine = [decode(TrainingPair, raw, k) for k, raw, _ in train[pairs_before:]]
+    mine = [p for p in mine if p.source == "teacher/person"]
+    print(f"the up arrow held 4 s: the robot walked {moved:.2f} m forward; {len(mine)} training pairs from the person")
+    assert moved > 0.3  # 0.15 m/s for 4 s, less the start and the stop
+    assert len(mine) >= 40  # 15 Hz for 4 s
+    assert all(np.isclose(p.y[0], 0.15) and p.mask is not None and list(p.mask) == [1.0, 0.0] for p in mine), \
+        "forward at full speed, the turn left to the student (a partial teacher)"
+    wait_until(lambda: probe.counter("learner/learner", "learned") >= learned_before + len(mine), 10,
+               "the learner learned them")
+
+
+def test_a_learner_killed_shows_gone_then_back(live):
+    run, page, _, _, _ = live
+    pid = run.ps()["learner"]["pid"]
+    os.kill(pid, signal.SIGKILL)
+    row = 'tr[data-service="main/learner/learner"]'
+    wait_until(lambda: page.locator(f"{row} td.gone").count() == 1, 15, "the learner shown gone")
+    wait_until(lambda: page.locator(f"{row} td.alive").count() == 1, 90, "the learner shown back")
+    assert run.ps()["learner"]["pid"] != pid
+
+
+@pytest.mark.parametrize("raw, reason", [
+    ("{not json", "not JSON"),
+    ('{"op": "teach", "teacher": "seeker", "on": "yes"}', "true or false"),
+    ('{"op": "teleop", "y": [NaN, 0]}', "not a number JSON allows"),
+    ('{"op": "teleop", "y": [1e309, 0]}', "in [-1, 1]"),
+    ('{"op": "teleop", "y": [5, 0]}', "in [-1, 1]"),
+    ('{"op": "arena", "seed": 1, "balls": {"<script>": [0, 0]}}', "lowercase"),
+    ('{"op": "launch", "what": "missiles"}', "not one of"),
+    ('{"op": "ping", "pad": "' + "x" * 5000 + '"}', "at most 4096"),
+])
+def test_a_malformed_message_shows_an_error_and_changes_nothing(live, raw, reason):
+    run, page, _, _, _ = live
+    commands = len(run.recorded[run.keys.command])
+    teaching = run.session.liveliness().get(run.keys.teaching("*"), timeout=1)
+    before = sorted(str(r.ok.key_expr) for r in teaching if r.ok)
+    errors = page.locator(".msg.error").count()
+    page.evaluate("raw => window.doggedSendRaw(raw)", raw)
+    wait_until(lambda: page.locator(".msg.error").count() > errors, 5, "an error on the page")
+    assert reason in page.locator(".msg.error").last.inner_text()
+    after = sorted(str(r.ok.key_expr) for r in run.session.liveliness().get(run.keys.teaching("*"), timeout=1) if r.ok)
+    assert after == before, "no teacher switched"
+    wait_until(lambda: len(run.recorded[run.keys.command]) > commands + 10, 5, "the loop goes on")
+    assert page.inner_text("#link") == "online"

@@ -1,0 +1,150 @@
+"""The page's messages and its server's doors, without a bus: what is accepted, what is refused and why."""
+import asyncio
+import json
+import logging
+import threading
+
+import pytest
+from websockets.asyncio.client import connect
+from websockets.exceptions import InvalidStatus
+
+from services.ui.protocol import BadMessage, parse
+from services.ui.server import UiServer
+from tests.harness import free_port
+
+
+def test_well_formed_messages_are_accepted():
+    assert parse('{"op": "teach", "teacher": "seeker", "on": true}', 2).fields == {"teacher": "seeker", "on": True}
+    assert parse('{"op": "teach", "teacher": "", "on": false, "hold": true}', 2).fields["hold"] is True
+    assert parse('{"op": "teleop", "y": [1, null], "sent": 12.5}', 2).fields == {"y": [1.0, None], "sent": 12.5}
+    assert parse('{"op": "arena", "seed": 3, "balls": {"pink": [0.9, 0.3], "orange": null}}', 2).fields["balls"] == {
+        "pink": [0.9, 0.3], "orange": None}
+    assert parse('{"op": "swap", "service": "learner", "spec": "knn"}', 2).op == "swap"
+
+
+@pytest.mark.parametrize("raw, reason", [
+    (b'{"op": "ping"}', "binary"),
+    ("[1, 2]", "JSON object"),
+    ('{"op": "teleop", "y": [0.5]}', "list of 2 entries"),
+    ('{"op": "teleop", "y": [true, 0]}', "number in [-1, 1]"),
+    ('{"op": "teleop", "y": [Infinity, 0]}', "not a number JSON allows"),
+    ('{"op": "teach", "teacher": "seeker"}', "missing field 'on'"),
+    ('{"op": "teach", "teacher": "seeker", "on": true, "extra": 1}', "unknown fields extra"),
+    ('{"op": "teach", "teacher": "../x", "on": true}', "lowercase"),
+    ('{"op": "arena", "seed": -1, "balls": {}}', "integer from 0"),
+    ('{"op": "arena", "seed": 1, "balls": {"pink": [1000, 0]}}', "within 10 m"),
+    ('{"op": "swap", "service": "learner", "spec": "k\\nn"}', "printable"),
+    ("[" * 5000, "at most 4096"),
+    ("[" * 4000, "not JSON"),
+])
+def test_malformed_messages_are_refused_with_a_reason(raw, reason):
+    with pytest.raises(BadMessage, match=None) as err:
+        parse(raw, 2)
+    assert reason in str(err.value)
+
+
+class Bridge:
+    def __init__(self):
+        self.requests = []
+
+    def request(self, op, fields, reply):
+        self.requests.append((op, fields))
+        reply("done", True)
+
+
+def serve(token=None):
+    """A UiServer on a free port in a thread; returns (server, port, stop)."""
+    hello = {"outputs": {"names": ["forward", "turn"]}, "instance": "main"}
+    server = UiServer(Bridge(), hello, "127.0.0.1", free_port(), token, logging.getLogger("test"))
+    stop, up = threading.Event(), threading.Event()
+    threading.Thread(target=lambda: asyncio.run(server.serve(stop, lambda port: up.set())), daemon=True).start()
+    assert up.wait(10)
+    return server, server.port, stop
+
+
+async def exchange(url, messages, origin=None):
+    async with connect(url, origin=origin) as ws:
+        hello = json.loads(await ws.recv())
+        answers = []
+        for m in messages:
+            await ws.send(m)
+            answers.append(json.loads(await ws.recv()))
+        return hello, answers
+
+
+def test_the_server_acts_on_good_requests_and_refuses_bad_ones_without_closing():
+    server, port, stop = serve()
+    try:
+        hello, answers = asyncio.run(exchange(f"ws://127.0.0.1:{port}/ws", [
+            '{"op": "teach", "teacher": "seeker", "on": true}', "{bad", '{"op": "teleop", "y": [0, 2]}',
+            '{"op": "teach", "teacher": "seeker", "on": false}']))
+        assert hello["type"] == "hello"
+        assert [a["type"] for a in answers] == ["reply", "error", "error", "reply"]
+        assert server.bridge.requests == [("teach", {"teacher": "seeker", "on": True}),
+                                          ("teach", {"teacher": "seeker", "on": False})]
+        assert server.rejected["message"] == 2
+    finally:
+        stop.set()
+
+
+def test_another_sites_page_and_a_wrong_token_are_refused():
+    server, port, stop = serve(token="s3cret")
+    try:
+        with pytest.raises(InvalidStatus, match="401"):
+            asyncio.run(exchange(f"ws://127.0.0.1:{port}/ws?token=wrong", []))
+        with pytest.raises(InvalidStatus, match="403"):
+            asyncio.run(exchange(f"ws://127.0.0.1:{port}/ws?token=s3cret", [], origin="http://evil.example"))
+        hello, _ = asyncio.run(exchange(f"ws://127.0.0.1:{port}/ws?token=s3cret", [],
+                                        origin=f"http://127.0.0.1:{port}"))
+        assert hello["instance"] == "main"
+        assert server.rejected == {"token": 1, "origin": 1}
+    finally:
+        stop.set()
+
+
+def bridge_on_fake_bus():
+    from bus_schema import Box, Spaces
+    from services.ui.bridge import Bridge as BusBridge
+    from tests.fakebus import FakeSession
+    output = Box([-0.15, -0.8], [0.15, 0.8], ["forward", "turn"], ["m/s", "rad/s"])
+    spaces = Spaces(Box.uniform(3, -1.0, 1.0, "x", "1"), output)
+    views = []
+    bus = FakeSession()
+    return BusBridge(bus, "main", "aibo", "person", spaces, lambda kind, p: views.append((kind, p)),
+                     logging.getLogger("test")), bus, views
+
+
+def test_the_person_teaches_only_what_they_press_and_lets_go():
+    import time
+
+    import numpy as np
+
+    from bus_schema import Input, Proposal, decode, encode
+    bridge, bus, _ = bridge_on_fake_bus()
+    bridge.on_input("dl/main/input", encode(Input(41, time.time(), np.zeros(3))), None)
+    bridge.on_page("teleop", {"y": [1.0, None]}, None)  # only the up arrow
+    assert [t.key for t in bus.tokens] == ["dl/main/alive/teaching/person"]
+    said = decode(Proposal, bus.on("dl/main/proposal/teacher/person")[-1], "k")
+    assert said.tick == 41 and np.allclose(said.y[0], 0.15) and list(said.mask) == [1.0, 0.0]
+    bridge.on_input("dl/main/input", encode(Input(42, time.time(), np.zeros(3))), None)
+    assert decode(Proposal, bus.on("dl/main/proposal/teacher/person")[-1], "k").tick == 42
+    bridge.on_page("teleop", {"y": [None, None]}, None)  # let go
+    assert bus.tokens == []
+    bridge.on_page("teleop", {"y": [-1.0, 1.0]}, None)
+    bridge.teleop.said_at -= 1.0  # not refreshed: the page is gone
+    bridge.teleop.expire()
+    assert bus.tokens == []
+
+
+def test_names_the_page_would_show_are_checked():
+    import zenoh
+
+    from bus_schema import Status, encode
+    bridge, _, _ = bridge_on_fake_bus()
+    bridge.on_alive("dl/main/alive/learner/<img src=x onerror=alert(1)>", None, zenoh.SampleKind.PUT)
+    bridge.on_alive("dl/main/alive/learner/knn", None, zenoh.SampleKind.PUT)
+    bridge.on_status("dl/main/status/learner/knn", encode(Status("learner", "knn", 7, {}, {
+        "rates": {"learned": 3.0, "<b>": 1.0, "nan": float("nan")}})), None)
+    assert list(bridge.services) == ["main/learner/knn"]
+    assert bridge.services["main/learner/knn"]["rates"] == {"learned": 3.0}
+    assert bridge.rejects.total == 1
