@@ -1,10 +1,16 @@
 """deploy/ballseek.toml with its page (`dogged ui`), brought up for the page's tests and benchmark: the
-profile file itself, its page on a given port, its learner's state and the logs in the run's folder."""
+profile file itself, its page on a given port, its learner's state and the logs in the run's folder;
+and a scripted person who teaches ball seeking through the page's arrow keys."""
 from __future__ import annotations
 
 from pathlib import Path
 
-from services.demo.live import REPO, LiveRun
+import numpy as np
+
+from services.demo.ballseek import LiveStage
+from bus_schema import Input
+from services.demo.live import REPO, LiveRun, decoded
+from services.teachers import make_teacher
 
 PROFILE = REPO / "deploy" / "ballseek.toml"
 PAGE_ADDRESS = '"127.0.0.1:8080"'
@@ -23,3 +29,47 @@ def start_ballseek_with_page(run_dir: Path, endpoint: str, port: int) -> LiveRun
     run = LiveRun(run_dir / "ballseek.toml", run_dir, endpoint)
     run.wait_ready()
     return run
+
+
+class KeyboardPerson:
+    """A scripted person at the page who knows ball seeking: each tick it looks at what the robot sees
+    (the instance's newest input) and holds the arrow keys the ball-seeking teacher's answer asks for:
+    up for forward, left or right for a turn (bang-bang, as keys are), nothing otherwise."""
+
+    FORWARD_AT, TURN_AT = 0.4, 0.25  # fractions of the output's range that make the person press
+
+    def __init__(self, page, spaces):
+        self.page, self.held = page, set()
+        self.policy = make_teacher("ballseek", spaces)
+        self.high = np.asarray(spaces.output.high, dtype=np.float64)
+
+    def keys_for(self, x: np.ndarray) -> set[str]:
+        y, _ = self.policy(x)
+        if y is None:
+            return set()
+        f, t = np.asarray(y) / self.high
+        return ({"ArrowUp"} if f > self.FORWARD_AT else set()) | (
+            {"ArrowLeft"} if t > self.TURN_AT else {"ArrowRight"} if t < -self.TURN_AT else set())
+
+    def press(self, keys: set[str]) -> None:
+        for key in sorted(self.held - keys):
+            self.page.keyboard.up(key)
+        for key in sorted(keys - self.held):
+            self.page.keyboard.down(key)
+        self.held = set(keys)
+
+
+class PageStage(LiveStage):
+    """The ball-seeking protocol's stage where teaching is the person at the page driving with keys
+    (LiveStage's teacher switch is never used): while teaching, every tick the person presses what the
+    robot's newest input calls for; otherwise their hands are off the keys."""
+
+    def __init__(self, run: LiveRun, rate: float, person: KeyboardPerson):
+        super().__init__(run, rate)
+        self.person = person
+
+    def switch(self, on: bool) -> None:
+        recorded = self.run.recorded[self.run.keys.input][-1:] if on else []
+        newest = decoded(Input, *recorded[0][:2]) if recorded else None
+        self.person.press(self.person.keys_for(newest.x) if newest is not None else set())
+        self.teaching = on

@@ -1,0 +1,45 @@
+"""Teleoperation end to end (issue 15, acceptance 3): a scripted person teaches ball seeking for 60 s
+only through the page's arrow keys (the ball-seeking teacher's policy pressing keys), then the
+student alone seeks the pink ball. deploy/ballseek.toml live, the page in headless chromium."""
+from collections import Counter
+
+from bus_schema import SpacesMessage, Spaces, TrainingPair, decode
+from services.bus.queries import ask_owner
+from services.demo.live import decoded
+from services.demo.page import KeyboardPerson, PageStage, start_ballseek_with_page
+from services.experiments import ballseek_protocol as protocol
+from services.ui.headless import open_page
+from tests.harness import free_port
+
+RATE_HZ = 15.0  # deploy/ballseek.toml's
+TEACH_S, EPISODES, EPISODE_S = 60.0, 10, 30.0  # as the demo's pink episodes
+
+
+def test_a_person_teaches_ball_seeking_with_the_arrow_keys(tmp_path):
+    port = free_port()
+    run = start_ballseek_with_page(tmp_path / "run", f"tcp/127.0.0.1:{free_port()}", port)
+    held = run.record(run.keys.train)
+    try:
+        payload, problem = ask_owner(run.session, run.keys.spaces, 5.0)
+        assert payload is not None, problem
+        spaces = Spaces.from_dict(decode(SpacesMessage, payload, run.keys.spaces).spaces)
+        with open_page(f"http://127.0.0.1:{port}/") as page:
+            page.wait_for_selector("#ears[data-mode]", timeout=30_000)
+            stage = PageStage(run, RATE_HZ, KeyboardPerson(page, spaces))
+            protocol.teach(stage, True, TEACH_S, seed=0)
+            stage.switch(False)
+            pairs = (decoded(TrainingPair, k, raw) for k, raw, _ in run.recorded[run.keys.train])
+            taught = Counter(p.source for p in pairs if p is not None)
+            alone_from = len(run.recorded[run.keys.command])
+            results = protocol.episodes(stage, 0, "episodes", EPISODES, EPISODE_S, "pink", teaching=False)
+            modes = Counter(c.mode for c in run.commands()[alone_from:])
+        reached = [r for r in results if r is not None]
+        print(f"taught {TEACH_S:.0f} s through the keys ({stage.taught_ticks} ticks with a key held; pairs by "
+              f"source {dict(taught)}); alone: reached the pink ball in {len(reached)} of {EPISODES} "
+              f"({[None if r is None else round(r, 1) for r in results]} s); modes {dict(modes)}")
+        assert set(taught) == {"teacher/person"} and taught["teacher/person"] >= 300, "taught by the keys alone"
+        assert modes["teacher"] == 0
+        assert len(reached) >= 0.8 * EPISODES
+    finally:
+        held.undeclare()
+        assert run.close() == 0
