@@ -43,6 +43,7 @@ class InstanceKeys(_Keys):
         self.train = f"{p}/train"
         self.train_recent = f"{p}/train/recent"
         self.teach = f"{p}/teach"
+        self.record = f"{p}/record"
         self.select_learner = f"{p}/arbitrator/select"
         self.spaces = f"{p}/spaces"
         self.proposals = f"{p}/proposal/**"

@@ -130,6 +130,14 @@ class TeachSwitch:
 
 
 @dataclass(frozen=True, slots=True)
+class RecordSwitch:
+    """A person pauses or resumes recording; recorder '' means every recorder of the instance."""
+    FIELDS = (("recorder", STR), ("on", BOOL))
+    recorder: str
+    on: bool
+
+
+@dataclass(frozen=True, slots=True)
 class SelectLearner:
     """Tells the arbitrator which learner serves from now on (hot-swap)."""
     FIELDS = (("learner", STR),)

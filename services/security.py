@@ -59,7 +59,7 @@ OWNERS = (
     ("commands", _PUT, [_I.command, _I.train], ("arbitrator",)),
     ("recent pairs", _ANSWER, [_I.train_recent], ("arbitrator",)),
     ("commanding tokens", _TOKEN, [_I.commanding("**"), _I.alive("arbitrator", "**")], ("arbitrator",)),
-    ("operator verbs", _PUT, [_I.teach, _I.select_learner, _R.arena], ("operator", "supervisor")),
+    ("operator verbs", _PUT, [_I.teach, _I.record, _I.select_learner, _R.arena], ("operator", "supervisor")),
     ("supervisor verbs", _ASK, [f"{SUPERVISOR}/**"], ("operator", "supervisor")),
     ("supervisor answers", _ANSWER, [f"{SUPERVISOR}/**"], ("supervisor",)),
 )

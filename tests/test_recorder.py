@@ -188,3 +188,21 @@ def test_a_contradicting_spaces_answer_leaves_lengths_unchecked(tmp_path):
     rec.on_sample("dl/main/input", encode(Input(3, 1.0, np.zeros(6))), 2)
     rec.writer.close()
     assert rec.rejects.counts == {"dl/main/spaces": 1} and rec.counts["recorded"] == 6
+
+
+def test_a_person_pauses_and_resumes_recording_and_the_file_says_so(tmp_path):
+    from bus_schema import RecordSwitch
+    writer = RunWriter(tmp_path, "recorder", rotate_bytes=10**9, rotate_s=3600.0)
+    rec = Recording(writer, LOG, "recorder")
+    stream = list(samples(30))
+    switches = {30: RecordSwitch("", False), 60: RecordSwitch("someone-else", True), 75: RecordSwitch("recorder", True)}
+    for i, (key, raw) in enumerate(stream):
+        if i in switches:
+            rec.on_sample("dl/main/record", encode(switches[i]), 10**18 + i)
+        rec.on_sample(key, raw, 10**18 + i)
+    writer.close()
+    keys = [s.key for s in iter_samples(tmp_path)]
+    assert keys.count("dl/main/record") == 3, "every switch recorded: the gap is explained"
+    assert len(keys) - 3 == 30 + (len(stream) - 75)  # the samples before the pause and after the resume
+    assert rec.counts["paused_samples"] == 45
+    assert rec.status()[1]["recording"] is True

@@ -8,8 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from bus_schema import Command, TrainingPair, decode
-from services.demo.page import start_ballseek_with_page
+from bus_schema import TrainingPair, decode
+from services.demo.page import start_ballseek_with_page, teach_click_to_bus
 from services.ui.headless import open_page
 from tests.harness import Probe, free_port, wait_until
 
@@ -59,14 +59,16 @@ def test_teach_turns_the_ears_to_teacher_within_200_ms_and_the_camera_moves(live
     run, page, _, run_dir, _ = live
     run.reset_arena(1, {"pink": [1.2, 0.4]})
     time.sleep(1.0)
-    seen = len(run.recorded[run.keys.command])
-    page.click('button.toggle[data-teacher="seeker"]')
-    clicked = page.evaluate("window.doggedStats.clicks.at(-1)[1]") / 1000.0  # the page's own clock: the wall's
-    wait_until(lambda: any(decode(Command, raw, k).mode == "teacher"
-                           for k, raw, _ in run.recorded[run.keys.command][seen:]), 5, "a teacher command")
-    first = next(t for k, raw, t in run.recorded[run.keys.command][seen:] if decode(Command, raw, k).mode == "teacher")
-    print(f"click to the first teacher command on the bus: {1000 * (first - clicked):.0f} ms")
-    assert first - clicked < 0.2
+    latencies = []
+    for _ in range(4):  # on and off: the ears turn red each time
+        latencies.append(teach_click_to_bus(run, page, "seeker"))
+        page.wait_for_selector('button.toggle.on[data-teacher="seeker"]', timeout=5000)
+        page.click('button.toggle[data-teacher="seeker"]')
+        wait_until(lambda: run.mode() != "teacher", 5, "the teacher off")
+        time.sleep(0.5)
+    latencies.append(teach_click_to_bus(run, page, "seeker"))
+    print(f"click on Teach to the first teacher command on the bus: {[round(ms) for ms in latencies]} ms")
+    assert np.median(latencies) < 200
     wait_until(lambda: ears(page) == "teacher", 2, "the page's ears red")
     before = page.locator("#camera").screenshot()
     time.sleep(2.0)
@@ -112,6 +114,20 @@ def test_holding_the_up_arrow_walks_the_robot_and_teaches_the_learner(live):
                "the learner learned them")
 
 
+def test_recording_is_paused_and_resumed_from_the_page(live):
+    _, page, _, _, probe = live
+    page.wait_for_selector("#record.on", timeout=10_000)  # a recorder runs, recording
+    page.click("#record")
+    wait_until(lambda: probe.state("recorder/recorder", "recording") is False, 10, "the recorder paused")
+    paused = probe.counter("recorder/recorder", "paused_samples")
+    wait_until(lambda: probe.counter("recorder/recorder", "paused_samples") > paused + 100, 10, "samples not written")
+    page.wait_for_selector("#record:not(.on)", timeout=5000)
+    page.click("#record")
+    wait_until(lambda: probe.state("recorder/recorder", "recording") is True, 10, "the recorder recording again")
+    recorded = probe.counter("recorder/recorder", "recorded")
+    wait_until(lambda: probe.counter("recorder/recorder", "recorded") > recorded + 100, 10, "samples written again")
+
+
 def test_a_learner_killed_shows_gone_then_back(live):
     run, page, _, _, _ = live
     pid = run.ps()["learner"]["pid"]
@@ -145,3 +161,18 @@ def test_a_malformed_message_shows_an_error_and_changes_nothing(live, raw, reaso
     assert after == before, "no teacher switched"
     wait_until(lambda: len(run.recorded[run.keys.command]) > commands + 10, 5, "the loop goes on")
     assert page.inner_text("#link") == "online"
+
+
+def test_the_page_fits_a_phone(live):
+    _, page, _, run_dir, _ = live
+    page.set_viewport_size({"width": 390, "height": 844})
+    try:
+        page.wait_for_timeout(300)
+        shot(page, run_dir, "phone")
+        width = page.evaluate("document.documentElement.scrollWidth")
+        assert width <= 390, f"the page is {width} px wide on a 390 px screen: it scrolls sideways"
+        for arrow in ("up", "left", "down", "right"):  # the on-screen arrows, for thumbs
+            box = page.locator(f"#key-{arrow}").bounding_box()
+            assert box["width"] >= 44 and box["height"] >= 44 and box["x"] + box["width"] <= 390, (arrow, box)
+    finally:
+        page.set_viewport_size({"width": 1100, "height": 1300})

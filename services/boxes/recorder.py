@@ -4,7 +4,8 @@ Each payload is checked against the bus schema before it is written (one that do
 counted and logged, not recorded); the platform's spaces go into every file as metadata. A folder it
 cannot write (unwritable, a full disk) is an error in its status (`dogged ps`) and its log: it keeps
 running, counts what it could not record, and tries a new file every few seconds; the loop never
-waits for it.
+waits for it. A person may pause it and resume it (`dl/<i>/record`, the page's Record switch): paused,
+it counts what it does not write; the switches themselves are recorded, so a file says why it has a gap.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from pathlib import Path
 
 import zenoh
 
-from bus_schema import InstanceKeys, RobotKeys, SchemaError, Spaces, SpacesMessage, decode
+from bus_schema import InstanceKeys, RecordSwitch, RobotKeys, SchemaError, Spaces, SpacesMessage, decode
 from bus_schema.catalog import payload_of
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Inbox, Rejects
@@ -32,8 +33,9 @@ RETRY_S = 5.0  # after a write failed, how long before a new file is tried
 class Recording:
     """The recorder's state, driven by samples (bus-free: tests hand it samples and fail its files)."""
 
-    def __init__(self, writer: RunWriter, log):
-        self.writer, self.log = writer, log
+    def __init__(self, writer: RunWriter, log, name: str = "recorder"):
+        self.writer, self.log, self.name = writer, log, name
+        self.paused = False  # a person paused it (dl/<i>/record): samples are counted, not written
         self.rejects, self.counts = Rejects(log), collections.Counter()
         self.error, self._retry_at = "", 0.0
         self.dims: dict[str, dict] = {}  # dl/<instance> -> the vector lengths its spaces give (once known)
@@ -47,6 +49,13 @@ class Recording:
             msg = decode(found[0], raw, key, self.dims.get(key[:key.find("/", 3)]))
         except SchemaError as err:
             self.rejects(key, err)
+            return
+        if isinstance(msg, RecordSwitch):  # every switch is recorded: the file says why it has a gap
+            if msg.recorder in ("", self.name) and self.paused == msg.on:
+                self.log.info("recording %s by a person's switch", "resumed" if msg.on else "paused")
+                self.paused = not msg.on
+        elif self.paused:
+            self.counts["paused_samples"] += 1
             return
         stamp = getattr(msg, "stamp", None)
         publish_ns = int(stamp * 1e9) if isinstance(stamp, float) and stamp > 0 else log_ns
@@ -105,7 +114,8 @@ class Recording:
     def status(self):
         counters = dict(self.counts, rejected=self.rejects.total, files=self.writer.files_written,
                         file_bytes=self.writer.bytes_in_file)
-        return counters, {"folder": str(self.writer.folder), "file": str(self.writer.path or ""), "error": self.error}
+        return counters, {"folder": str(self.writer.folder), "file": str(self.writer.path or ""), "error": self.error,
+                          "recording": not self.paused}
 
 
 def repair_unfinished(folder: Path, name: str, log) -> None:
@@ -138,7 +148,7 @@ def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str,
     writer.add_metadata("run", {"instances": ",".join(instances), "robots": ",".join(robots),
                                 "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%SZ",
                                                                                        time.gmtime())})
-    recording = Recording(writer, log)
+    recording = Recording(writer, log, name)
     spaces_keys = [InstanceKeys(i).spaces for i in instances] + [RobotKeys(r).spaces for r in robots]
     status_key = InstanceKeys(instances[0]).status("recorder", name)
 

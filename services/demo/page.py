@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from services.demo.ballseek import LiveStage
-from bus_schema import Input
+from bus_schema import Command, Input
 from services.demo.live import REPO, LiveRun, decoded
 from services.teachers import make_teacher
+from services.waiting import poll
 
 PROFILE = REPO / "deploy" / "ballseek.toml"
 PAGE_ADDRESS = '"127.0.0.1:8080"'
@@ -73,3 +74,25 @@ class PageStage(LiveStage):
         newest = decoded(Input, *recorded[0][:2]) if recorded else None
         self.person.press(self.person.keys_for(newest.x) if newest is not None else set())
         self.teaching = on
+
+
+def teach_click_to_bus(run: LiveRun, page, teacher: str, timeout: float = 5.0) -> float:
+    """Clicks the page's Teach toggle of `teacher` (switched off) and returns the milliseconds from the
+    click (the page's clock) to the first teacher command on the bus (its arrival here): the ears turned."""
+    commands = run.recorded[run.keys.command]
+    button = f'button.toggle[data-teacher="{teacher}"]'
+    page.wait_for_selector(f"{button}:not(.on)", timeout=timeout * 1000)  # the page knows it is off
+    seen = len(commands)
+    page.click(button)
+    clicked = page.evaluate("window.doggedStats.clicks.at(-1)[1]") / 1000.0  # the page's clock: the wall's
+
+    def first_teacher():
+        for key, raw, arrived in commands[seen:]:
+            command = decoded(Command, key, raw)
+            if command is not None and command.mode == "teacher":
+                return arrived
+        return None
+    arrived = poll(first_teacher, timeout, 0.005)
+    if arrived is None:
+        raise TimeoutError(f"no teacher command within {timeout} s of clicking Teach for {teacher}")
+    return 1000.0 * (arrived - clicked)

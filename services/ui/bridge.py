@@ -20,8 +20,9 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import (ArenaReset, Command, ControlReply, Frame, InstanceKeys, Input, Proposal, RobotKeys, RobotState,
-                        SchemaError, Spaces, Status, TeachSwitch, decode, encode, supervisor_key, supervisor_token)
+from bus_schema import (ArenaReset, Command, ControlReply, Frame, InstanceKeys, Input, Proposal, RecordSwitch,
+                        RobotKeys, RobotState, SchemaError, Spaces, Status, TeachSwitch, decode, encode,
+                        supervisor_key, supervisor_token)
 from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.publishers import lossless_publisher
@@ -45,6 +46,7 @@ class Bridge:
         self.teleop = Teleop(session, self.keys, person, spaces.output, log)
         self.teach_pub = lossless_publisher(session, self.keys.teach)
         self.arena_pub = lossless_publisher(session, self.robot.arena)
+        self.record_pub = lossless_publisher(session, self.keys.record)
         self.latest: dict = {}  # the newest command, as the page shows it
         self.learner_y: collections.OrderedDict[int, np.ndarray] = collections.OrderedDict()
         self.series: list = []  # new plot points since the last view
@@ -125,6 +127,8 @@ class Bridge:
         instance = key.split("/")[1]
         entry = self.services.setdefault(f"{instance}/{msg.role}/{msg.name}", {"alive": False})
         rates = msg.state.get("rates", {})
+        if msg.role == "recorder":
+            entry["recording"] = msg.state.get("recording") is not False
         entry.update(pid=msg.pid, host=str(msg.state.get("host", ""))[:64], seen=time.monotonic(),
                      rates={k: v for k, v in list(rates.items())[:16] if isinstance(k, str) and _RATE.match(k)
                             and isinstance(v, (int, float)) and math.isfinite(v)}
@@ -174,6 +178,9 @@ class Bridge:
             reply(f"teaching {'on' if fields['on'] else 'off'}: {fields['teacher'] or 'every teacher'}", True)
         elif op == "teleop":
             self.teleop.set(fields["y"])
+        elif op == "record":
+            self.record_pub.put(encode(RecordSwitch("", fields["on"])))
+            reply(f"recording {'resumed' if fields['on'] else 'paused'}", True)
         elif op == "arena":
             self.arena_pub.put(encode(ArenaReset(fields["seed"], fields["balls"])))
             reply(f"arena {fields['seed']} asked", True)
@@ -217,7 +224,8 @@ class Bridge:
         teaching = sorted(key.split("/")[2] for key, e in self.services.items()
                           if key.startswith(mine) and key.split("/")[1] == "teaching-token" and e["alive"])
         services = [{"instance": key.split("/")[0], "role": key.split("/")[1], "name": key.split("/")[2],
-                     "alive": e["alive"], "rates": e.get("rates", {}), "host": e.get("host", "")}
+                     "alive": e["alive"], "rates": e.get("rates", {}), "host": e.get("host", ""),
+                     **({"recording": e["recording"]} if "recording" in e else {})}
                     for key, e in sorted(self.services.items()) if not key.split("/")[1].endswith("-token")]
         self.emit("view", {"type": "view", "command": self.latest, "series": self.series, "teachers": teachers,
                            "teaching": teaching, "services": services, "robot": self.robot_state,

@@ -21,6 +21,7 @@ OPS = {  # op -> {field: kind}
     "teleop": {"y": "teleop_vector", "sent": "time"},
     "swap": {"service": "name", "spec": "spec"},
     "arena": {"seed": "seed", "balls": "balls"},
+    "record": {"on": "bool"},
     "ping": {"sent": "time"},
 }
 OPTIONAL = {"sent", "hold"}

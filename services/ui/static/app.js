@@ -224,6 +224,7 @@ $("arena").addEventListener("submit", (ev) => {
   ev.preventDefault();
   send({ op: "arena", seed: Number($("arena-seed").value), balls: { pink: [Number($("pink-x").value), Number($("pink-y").value)] } });
 });
+$("record").addEventListener("click", () => send({ op: "record", on: !$("record").classList.contains("on") }));
 $("swap").addEventListener("submit", (ev) => {
   ev.preventDefault();
   const service = $("swap-service").value;
@@ -241,6 +242,15 @@ function drawServices(services) {
       `<td class="${s.alive ? "alive" : "gone"}">${s.alive ? "alive" : "gone"}</td><td>${rates}</td></tr>`;
   });
   $("services").tBodies[0].innerHTML = rows.join("");
+  const recorders = services.filter((s) => s.role === "recorder" && s.alive);
+  $("recording").hidden = !recorders.length;
+  if (recorders.length) {
+    const on = recorders.every((s) => s.recording !== false);
+    const button = $("record");
+    button.classList.toggle("on", on);
+    button.textContent = on ? "Recording: pause" : "Paused: record";
+    $("record-state").textContent = on ? "every message goes into the run's files" : "not recording";
+  }
   const select = $("swap-service"), learners = services.filter((s) => s.role === "learner").map((s) => s.name);
   if (select.options.length !== learners.length || learners.some((n, i) => select.options[i].value !== n))
     select.innerHTML = learners.map((n) => `<option value="${esc(n)}">${esc(n)}</option>`).join("");
