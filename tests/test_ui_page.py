@@ -176,3 +176,17 @@ def test_the_page_fits_a_phone(live):
             assert box["width"] >= 44 and box["height"] >= 44 and box["x"] + box["width"] <= 390, (arrow, box)
     finally:
         page.set_viewport_size({"width": 1100, "height": 1300})
+
+
+def test_the_learner_is_hot_swapped_from_the_page(live):
+    run, page, _, _, _ = live
+    page.select_option("#swap-service", "learner")
+    page.fill("#swap-spec", "knn")
+    page.click("#swap button[type=submit]")
+    answer = page.locator(".msg.info", has_text="serves in place of")
+    answer.wait_for(timeout=120_000)
+    print(f"the supervisor answered the page: {answer.first.inner_text()!r}")
+    new = answer.first.inner_text().split(" ")[0]
+    wait_until(lambda: page.locator(f'tr[data-service="main/learner/{new}"] td.alive').count() == 1, 15,
+               f"{new} listed alive")
+    assert run.ps()[new]["state"] == "ready"
