@@ -114,6 +114,70 @@ def test_holding_the_up_arrow_walks_the_robot_and_teaches_the_learner(live):
                "the learner learned them")
 
 
+def person_pairs(train, since: int) -> list:
+    pairs = (decode(TrainingPair, raw, k) for k, raw, _ in train[since:])
+    return [p for p in pairs if p.source == "teacher/person"]
+
+
+def teaching_now(run) -> list[str]:
+    return sorted(str(r.ok.key_expr).rsplit("/", 1)[-1]
+                  for r in run.session.liveliness().get(run.keys.teaching("*"), timeout=1) if r.ok)
+
+
+def test_the_on_screen_left_arrow_teaches_only_the_turn(live):
+    run, page, train, _, _ = live
+    since = len(train)
+    page.locator("#key-left").hover()
+    page.mouse.down()
+    time.sleep(2.0)
+    page.mouse.up()
+    mine = person_pairs(train, since)
+    print(f"the on-screen left arrow held 2 s: {len(mine)} pairs from the person")
+    assert len(mine) >= 20
+    assert all(np.isclose(p.y[1], 0.8) and list(p.mask) == [0.0, 1.0] for p in mine), "turn left only"
+    wait_until(lambda: "person" not in teaching_now(run), 5, "the person let go")
+
+
+def test_a_gamepad_stick_drives_and_teaches(live):
+    run, page, train, _, _ = live
+    since = len(train)
+    # a pad as the Gamepad API shows one: stick half up (axis 1 negative), no turn
+    page.evaluate("""() => { window.padAxes = [0.0, -0.5];
+        Object.defineProperty(navigator, 'getGamepads', {configurable: true,
+            value: () => [{id: 'test pad', axes: window.padAxes}]}); }""")
+    try:
+        wait_until(lambda: len(person_pairs(train, since)) >= 20, 10, "20 pairs from the stick")
+        assert "test pad" in page.inner_text("#gamepad")
+    finally:
+        page.evaluate("() => { window.padAxes = [0.0, 0.0]; }")
+    mine = person_pairs(train, since)
+    assert all(np.isclose(p.y[0], 0.075) and list(p.mask) == [1.0, 0.0] for p in mine), "half forward, no turn said"
+    wait_until(lambda: "person" not in teaching_now(run), 5, "the stick centred: the person let go")
+
+
+def test_hold_to_teach_teaches_while_pressed(live):
+    run, page, _, _, _ = live
+    page.locator('button.hold[data-teacher="seeker"]').hover()
+    page.mouse.down()
+    try:
+        wait_until(lambda: teaching_now(run) == ["seeker"], 5, "the seeker teaching while held")
+        wait_until(lambda: run.mode() == "teacher", 5, "teacher commands")
+    finally:
+        page.mouse.up()
+    wait_until(lambda: teaching_now(run) == [], 5, "the seeker off once released")
+
+
+def test_the_arena_is_reset_with_the_ball_where_the_person_puts_it(live):
+    run, page, _, _, _ = live
+    since = len(run.recorded[run.robot.state])
+    page.fill("#arena-seed", "5")
+    page.fill("#pink-x", "0.8")
+    page.fill("#pink-y", "-0.2")
+    page.click("#arena button[type=submit]")
+    wait_until(lambda: any(np.allclose(s.balls["pink"][:2], [0.8, -0.2], atol=0.05) for s in run.states(since)), 10,
+               "the pink ball at (0.8, -0.2)")
+
+
 def test_recording_is_paused_and_resumed_from_the_page(live):
     _, page, _, _, probe = live
     page.wait_for_selector("#record.on", timeout=10_000)  # a recorder runs, recording

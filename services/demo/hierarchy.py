@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from services.demo.ballseek import LiveStage
-from services.demo.live import REPO, BusRecorder, LiveRun
+from services.demo.live import REPO, BusRecorder, LiveRun, when_ready
 from services.experiments import ballseek_protocol as protocol
 from services.experiments.hierarchy import EPISODE_SECONDS
 
@@ -45,9 +45,8 @@ class TwoLevelStage(LiveStage):
 
 def start_hierarchy(run_dir: Path, endpoint: str) -> tuple[LiveRun, BusRecorder]:
     run_dir.mkdir(parents=True, exist_ok=True)
-    run = LiveRun(profile_in(run_dir), run_dir, endpoint, instance=SEEK)
+    run = when_ready(LiveRun(profile_in(run_dir), run_dir, endpoint, instance=SEEK))
     try:
-        run.wait_ready()
         return run, BusRecorder(endpoint, instance=WALK)
     except BaseException:
         run.close()

@@ -146,6 +146,17 @@ class LiveRun(BusRecorder):
             self._log.close()
 
 
+def when_ready(run: LiveRun) -> LiveRun:
+    """`run` once every service is ready; if they never are, the whole profile is stopped before the error
+    goes up (a supervisor left running would load the machine under every test after)."""
+    try:
+        run.wait_ready()
+        return run
+    except BaseException:
+        run.close()
+        raise
+
+
 def decoded(cls, key: str, raw: bytes):
     try:
         return decode(cls, raw, key)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema.spaces import Spaces
-from services.demo.live import LiveRun
+from services.demo.live import LiveRun, when_ready
 from services.experiments.wiring import wired_learner
 from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT
 from services.platforms.aibo.platform import JOINTS_BOX
@@ -62,9 +62,7 @@ def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, se
     params = param_args(learner_params or {})
     profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, seed=seed, learner=learner, teachers=blocks,
                                       learner_params=params))
-    run = LiveRun(profile, run_dir, endpoint)
-    run.wait_ready()
-    return run
+    return when_ready(LiveRun(profile, run_dir, endpoint))
 
 
 def student_error(run: LiveRun, since_tick: int, axes=("pan", "tilt"), teacher=None,

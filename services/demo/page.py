@@ -9,7 +9,7 @@ import numpy as np
 
 from services.demo.ballseek import LiveStage
 from bus_schema import Command, Input
-from services.demo.live import REPO, LiveRun, decoded
+from services.demo.live import REPO, LiveRun, decoded, when_ready
 from services.teachers import make_teacher
 from services.waiting import poll
 
@@ -27,9 +27,7 @@ def start_ballseek_with_page(run_dir: Path, endpoint: str, port: int) -> LiveRun
             .replace("[profile]\n", f'[profile]\nlog_dir = "{run_dir / "logs"}"\n', 1))
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "ballseek.toml").write_text(text)
-    run = LiveRun(run_dir / "ballseek.toml", run_dir, endpoint)
-    run.wait_ready()
-    return run
+    return when_ready(LiveRun(run_dir / "ballseek.toml", run_dir, endpoint))
 
 
 class KeyboardPerson:
