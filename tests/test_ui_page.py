@@ -162,6 +162,8 @@ def test_hold_to_teach_teaches_while_pressed(live):
     try:
         wait_until(lambda: teaching_now(run) == ["seeker"], 5, "the seeker teaching while held")
         wait_until(lambda: run.mode() == "teacher", 5, "teacher commands")
+        time.sleep(1.0)
+        assert teaching_now(run) == ["seeker"], "still teaching while the button is held"
     finally:
         page.mouse.up()
     wait_until(lambda: teaching_now(run) == [], 5, "the seeker off once released")

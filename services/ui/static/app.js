@@ -145,9 +145,15 @@ function drawTeachers(teachers, teaching) {
     }));
     box.querySelectorAll("button.hold").forEach((b) => {
       const t = b.dataset.teacher;
-      b.addEventListener("pointerdown", () => send({ op: "teach", teacher: t, on: true, hold: true }));
-      for (const ev of ["pointerup", "pointercancel", "pointerleave"])
-        b.addEventListener(ev, () => send({ op: "teach", teacher: t, on: false, hold: true }));
+      // the pointer is captured while pressed: the button's row may reflow under it (the toggle's label
+      // changes), and only letting go, not a layout moving, ends the lesson
+      b.addEventListener("pointerdown", (ev) => {
+        b.setPointerCapture(ev.pointerId);
+        b.classList.add("on");
+        send({ op: "teach", teacher: t, on: true, hold: true });
+      });
+      for (const ev of ["pointerup", "pointercancel"])
+        b.addEventListener(ev, () => { b.classList.remove("on"); send({ op: "teach", teacher: t, on: false, hold: true }); });
     });
   }
   box.querySelectorAll("button.toggle").forEach((b) => {
@@ -200,8 +206,14 @@ document.addEventListener("keyup", (ev) => {
 });
 window.addEventListener("blur", () => { held.clear(); teleop(); });  // a key released elsewhere is released
 document.querySelectorAll(".pad .arrow").forEach((b) => {
-  b.addEventListener("pointerdown", (ev) => { ev.preventDefault(); stats.keys.push([b.dataset.key, now()]); held.add(b.dataset.key); teleop(); });
-  for (const ev of ["pointerup", "pointercancel", "pointerleave"])
+  b.addEventListener("pointerdown", (ev) => {
+    ev.preventDefault();
+    b.setPointerCapture(ev.pointerId);  // a thumb sliding off the arrow does not let go: lifting it does
+    stats.keys.push([b.dataset.key, now()]);
+    held.add(b.dataset.key);
+    teleop();
+  });
+  for (const ev of ["pointerup", "pointercancel"])
     b.addEventListener(ev, () => { if (held.delete(b.dataset.key)) teleop(); });
 });
 
