@@ -61,12 +61,11 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
             asyncio.run(serve())
         except OSError as err:
             log.error("cannot serve the page on %s:%d: %s", host, port, err)
+            return 2
+        finally:
             done.set()
             bus.join(2.0)
-            return 2
-        done.set()
-        bus.join(2.0)
-        alive.undeclare()
+            alive.undeclare()
     return 0
 
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from services.demo.ballseek import LiveStage
 from bus_schema import Command, Input
+from services.demo.ballseek import LiveStage
 from services.demo.live import REPO, LiveRun, decoded, when_ready
 from services.teachers import make_teacher
 from services.waiting import poll

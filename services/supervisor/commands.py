@@ -82,16 +82,35 @@ def _session(args):
                          f"({reason}){secured}") from None
 
 
-def _profile(session, args) -> str | None:
-    if args.profile:
-        return args.profile
+def running_profile(session) -> tuple[str | None, str]:
+    """The one profile whose supervisor runs on this bus: (name, "") or (None, why not)."""
     names = sorted({str(r.ok.key_expr).split("/")[-1]
                     for r in session.liveliness().get(supervisor_token("*"), timeout=2.0) if r.ok is not None})
     if len(names) == 1:
-        return names[0]
-    print("no running profile found" if not names else f"several profiles run ({', '.join(names)}): use --profile",
-          file=sys.stderr)
-    return None
+        return names[0], ""
+    return None, "no running profile found" if not names else f"several profiles run ({', '.join(names)})"
+
+
+def ask_supervisor(session, profile: str, verb: str, parameters: str = "",
+                   timeout: float = 5.0) -> tuple[ControlReply | None, str]:
+    """A verb asked of `profile`'s supervisor: (its reply, "") or (None, what went wrong)."""
+    key = supervisor_key(profile, verb)
+    payload, problem = ask_owner(session, f"{key}?{parameters}" if parameters else key, timeout)
+    if payload is None:
+        return None, f"the supervisor of {profile} did not answer {verb}: {problem}"
+    try:
+        return decode(ControlReply, payload, key), ""
+    except SchemaError as err:
+        return None, f"bad reply: {err}"
+
+
+def _profile(session, args) -> str | None:
+    if args.profile:
+        return args.profile
+    name, problem = running_profile(session)
+    if name is None:
+        print(f"{problem}{': use --profile' if 'several' in problem else ''}", file=sys.stderr)
+    return name
 
 
 def _ask(args, verb: str, parameters: str = "", timeout: float = 5.0) -> ControlReply | None:
@@ -99,16 +118,10 @@ def _ask(args, verb: str, parameters: str = "", timeout: float = 5.0) -> Control
         profile = _profile(session, args)
         if profile is None:
             return None
-        key = supervisor_key(profile, verb)
-        payload, problem = ask_owner(session, f"{key}?{parameters}" if parameters else key, timeout)
-        if payload is None:
-            print(f"the supervisor of {profile} did not answer {verb}: {problem}", file=sys.stderr)
-            return None
-        try:
-            return decode(ControlReply, payload, key)
-        except SchemaError as err:
-            print(f"bad reply: {err}", file=sys.stderr)
-            return None
+        reply, problem = ask_supervisor(session, profile, verb, parameters, timeout)
+        if reply is None:
+            print(problem, file=sys.stderr)
+        return reply
 
 
 def ps(args) -> int:

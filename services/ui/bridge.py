@@ -1,7 +1,7 @@
 """The UI's side of the bus: one thread, one Zenoh session, as every box has.
 
-It listens (commands, proposals, status and liveliness of every service, the robot's camera and
-state, the instance's inputs) and keeps a view the page is sent ten times a second; it acts for the
+It listens (commands, proposals, status and liveliness of every service, the robot's camera, the
+instance's inputs) and keeps a view the page is sent ten times a second; it acts for the
 person (teach switches, teleoperation as a teacher, learner swap, arena reset). Zenoh callbacks only
 append to the inbox; the page's requests come in through the same inbox, so one thread decodes,
 validates and acts. What it has for the page goes out through `emit(kind, payload)`, which must
@@ -20,21 +20,19 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import (ArenaReset, Command, ControlReply, Frame, InstanceKeys, Input, Proposal, RecordSwitch,
-                        RobotKeys, RobotState, SchemaError, Spaces, Status, TeachSwitch, decode, encode,
-                        supervisor_key, supervisor_token)
+from bus_schema import (ArenaReset, Command, Frame, InstanceKeys, Input, Proposal, RecordSwitch, RobotKeys, Spaces,
+                        Status, TeachSwitch, check_name, encode)
 from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.publishers import lossless_publisher
-from services.bus.queries import ask_owner
+from services.supervisor.commands import ask_supervisor, running_profile
 from services.ui.teleop import Teleop
 
 VIEW_PERIOD_S = 0.1  # the page's view of the system, ten times a second
 SERIES_HZ = 20  # points of the confidence / error plot per second at most
-FRAME_HEADER = struct.Struct("<qd")
+FRAME_HEADER = struct.Struct("<qd")  # tick, stamp: before each JPEG sent to the page
 MAX_SERVICES = 256  # a bus flooded with made-up tokens does not grow the page without bound
-_NAME = re.compile(r"^[a-z0-9][a-z0-9_-]{0,63}$")
-_RATE = re.compile(r"^[a-z0-9_]{1,40}$")  # tick, stamp: before each JPEG sent to the page
+_RATE = re.compile(r"^[a-z0-9_]{1,40}$")  # a counter's name, as the page shows it
 
 
 class Bridge:
@@ -51,7 +49,6 @@ class Bridge:
         self.learner_y: collections.OrderedDict[int, np.ndarray] = collections.OrderedDict()
         self.series: list = []  # new plot points since the last view
         self.services: dict[str, dict] = {}  # "instance/role/name" -> alive, rates, state
-        self.robot_state: dict = {}
         self.t0, self._next_point, self._next_view = time.monotonic(), 0.0, 0.0
         self._half_range = np.maximum((np.asarray(spaces.output.high) - np.asarray(spaces.output.low)) / 2, 1e-12)
         self._held = []
@@ -67,7 +64,6 @@ class Bridge:
                       s.declare_subscriber(self.keys.input, cb("input")),
                       s.declare_subscriber(EVERY_STATUS, cb("status")),
                       s.declare_subscriber(self.robot.camera, cb("frame")),
-                      s.declare_subscriber(self.robot.state, cb("robot")),
                       s.liveliness().declare_subscriber(EVERY_ALIVE, cb("alive"), history=True)]
 
     def request(self, op: str, fields: dict, reply) -> None:
@@ -77,7 +73,7 @@ class Bridge:
     def run(self, stop: threading.Event) -> None:
         self.declare()
         handlers = {"command": self.on_command, "learner": self.on_learner, "input": self.on_input,
-                    "status": self.on_status, "frame": self.on_frame, "robot": self.on_robot, "alive": self.on_alive}
+                    "status": self.on_status, "frame": self.on_frame, "alive": self.on_alive}
         while not stop.is_set():
             for tag, key, raw, kind in self.inbox.drain(0.02):
                 if tag == "page":
@@ -129,7 +125,7 @@ class Bridge:
         rates = msg.state.get("rates", {})
         if msg.role == "recorder":
             entry["recording"] = msg.state.get("recording") is not False
-        entry.update(pid=msg.pid, host=str(msg.state.get("host", ""))[:64], seen=time.monotonic(),
+        entry.update(host=str(msg.state.get("host", ""))[:64],
                      rates={k: v for k, v in list(rates.items())[:16] if isinstance(k, str) and _RATE.match(k)
                             and isinstance(v, (int, float)) and math.isfinite(v)}
                      if isinstance(rates, dict) else {})
@@ -145,12 +141,11 @@ class Bridge:
             role = f"{role}-token"
         entry = self.services.setdefault(f"{instance}/{role}/{name}", {"alive": False})
         entry["alive"] = kind == zenoh.SampleKind.PUT
-        entry["changed"] = time.monotonic()
 
     def _named(self, key: str, instance: str, role: str, name: str) -> bool:
         """Names the page shows are the bus's checked names (a key may hold other characters)."""
         known = any(f"{instance}/{r}/{name}" in self.services for r in (role, f"{role}-token"))
-        if all(_NAME.match(n) for n in (instance, role, name)) and (known or len(self.services) < MAX_SERVICES):
+        if _checked(instance, role, name) and (known or len(self.services) < MAX_SERVICES):
             return True
         self.rejects(key, ValueError(f"{key[:120]!r}: not instance/role/name of checked names, or more than "
                                      f"{MAX_SERVICES} services"))
@@ -161,14 +156,6 @@ class Bridge:
         if msg is not None:
             self.counts["frames"] += 1
             self.emit("frame", FRAME_HEADER.pack(msg.tick, msg.stamp) + msg.jpeg)
-
-    def on_robot(self, key, raw, _):
-        msg = decode_or_reject(RobotState, raw, key, self.rejects)
-        if msg is not None:
-            balls = {str(n)[:32]: [round(float(v), 3) for v in xy[:2]] for n, xy in list(msg.balls.items())[:8]
-                     if isinstance(xy, (list, tuple)) and len(xy) >= 2}
-            self.robot_state = {"base": [round(float(v), 3) for v in msg.base.tolist()], "ear_mode": msg.ear_mode,
-                                "sim_time": round(msg.sim_time, 2), "balls": balls}
 
     # --- what the page asks -------------------------------------------------------------------------
     def on_page(self, op: str, fields: dict, reply) -> None:
@@ -189,23 +176,11 @@ class Bridge:
             threading.Thread(target=self._swap, args=(fields["service"], fields["spec"], reply), daemon=True).start()
 
     def _swap(self, service: str, spec: str, reply) -> None:
-        profiles = sorted({str(r.ok.key_expr).split("/")[-1]
-                           for r in self.session.liveliness().get(supervisor_token("*"), timeout=2.0) if r.ok})
-        if len(profiles) != 1:
-            reply("no supervisor runs: start the system with `dogged up`" if not profiles
-                  else f"several profiles run ({', '.join(profiles)})", False)
-            return
-        key = supervisor_key(profiles[0], "swap")
-        payload, problem = ask_owner(self.session, f"{key}?service={service};spec={spec}", 180.0)
-        if payload is None:
-            reply(problem, False)
-            return
-        try:
-            answer = decode(ControlReply, payload, key)
-        except SchemaError as err:
-            reply(f"bad answer from the supervisor: {err}", False)
-            return
-        reply(answer.text, answer.ok)
+        profile, problem = running_profile(self.session)
+        answer = None
+        if profile is not None:
+            answer, problem = ask_supervisor(self.session, profile, "swap", f"service={service};spec={spec}", 180.0)
+        reply(problem, False) if answer is None else reply(answer.text, answer.ok)
 
     def report(self) -> tuple[dict, dict]:
         return (dict(self.counts, **self.server_counts(), rejected=self.rejects.total,
@@ -228,6 +203,15 @@ class Bridge:
                      **({"recording": e["recording"]} if "recording" in e else {})}
                     for key, e in sorted(self.services.items()) if not key.split("/")[1].endswith("-token")]
         self.emit("view", {"type": "view", "command": self.latest, "series": self.series, "teachers": teachers,
-                           "teaching": teaching, "services": services, "robot": self.robot_state,
+                           "teaching": teaching, "services": services,
                            "person": self.teleop.view(), "rejected": self.rejects.total})
         self.series = []
+
+
+def _checked(*names: str) -> bool:
+    try:
+        for name in names:
+            check_name("bus", name)
+    except ValueError:
+        return False
+    return True

@@ -96,7 +96,7 @@ class UiServer:
         if name is None:
             return _response(HTTPStatus.NOT_FOUND, b"not found\n", "text/plain")
         body = (STATIC / name).read_bytes()
-        return _response(HTTPStatus.OK, body, mimetypes.guess_type(name)[0] or "application/octet-stream")
+        return _response(HTTPStatus.OK, body, mimetypes.guess_type(name)[0] or "text/plain")
 
     def _refuse_socket(self, request: Request, url) -> Response | None:
         origin = request.headers.get("Origin")
@@ -196,8 +196,7 @@ class UiServer:
 
 
 def _response(status: HTTPStatus, body: bytes, content_type: str) -> Response:
-    headers = Headers([("Content-Type", f"{content_type}; charset=utf-8" if content_type.startswith("text")
-                        or content_type.endswith("javascript") else content_type),
+    headers = Headers([("Content-Type", f"{content_type}; charset=utf-8"),  # (every file served is text)
                        ("Content-Length", str(len(body))), ("Cache-Control", "no-store"),
                        ("X-Content-Type-Options", "nosniff")])
     return Response(status.value, status.phrase, headers, body)
