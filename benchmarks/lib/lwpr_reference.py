@@ -15,6 +15,7 @@ import numpy as np
 
 from benchmarks.lib.lwpr_draws import Case, cross_case, irrelevant_case, mirror_case, samples_until_good
 from benchmarks.lib.tasks import nmse, worst_error
+from services.learners.lwpr import default_init_d
 
 DRIVER = Path(__file__).resolve().parents[1] / "reference" / "lwpr_drive.c"
 LIBRARY_FILES = ("lwpr.c", "lwpr_aux.c", "lwpr_math.c", "lwpr_mem.c", "lwpr_binio.c")
@@ -24,9 +25,10 @@ LIBRARY_DEFAULTS = (-1.0, 0.1, 1, 0, -1.0)  # init_D 25, init_alpha 50, diagonal
 
 
 def our_defaults(n_in: int) -> tuple:
-    """Our LWPR's defaults (init_D 4/n, meta-learned rates from 250): in 18 or 20 inputs the library's
-    init_D 25 makes one field per sample and never learns (worst mirroring error 1.0 after 2000)."""
-    return (4.0 / n_in, 0.1, 1, 1, 250.0)
+    """Our LWPR's defaults (init_D from the input count, meta-learned rates from 250): in 18 or 20 inputs
+    the library's init_D 25 makes one field per sample and never learns (worst mirroring error 1.0 after
+    2000)."""
+    return (default_init_d(n_in), 0.1, 1, 1, 250.0)
 
 
 MIRROR_EVERY = 250  # the driver predicts after every this many updates
