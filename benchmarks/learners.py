@@ -2,9 +2,9 @@
 
 Prints a table (learner x task: accuracy, size, updates/s, predictions/s), the reference
 library's figures beside ours, then LWPR over 10 independent data draws per protocol (median and
-worst) beside the reference library on the same draws, and as its LAST line one JSON object of the
-figures. `--quick` runs in a minute or two (the two slower protocols over 3 draws); progress bars go
-to stderr.
+worst) beside the reference library on the same draws, where one LWPR call's time goes
+(benchmarks/lib/lwpr_percall.py), and as its LAST line one JSON object of the figures. `--quick`
+runs in a minute or two (the two slower protocols over 3 draws); progress bars go to stderr.
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
-from benchmarks.lib import lwpr_versus  # noqa: E402
+from benchmarks.lib import lwpr_percall, lwpr_versus  # noqa: E402
 from benchmarks.lib.tasks import (  # noqa: E402
     CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse,
     three_outputs, three_outputs_samples, worst_error,
@@ -168,6 +168,11 @@ def main(quick: bool, reference_source: Path | None = None) -> dict:
         mine = lwpr_versus.ours(draws, slow_draws=3 if quick else draws)
         theirs, provenance = lwpr_versus.reference(draws, reference_source)
         figures.update(lwpr_versus.table(mine, theirs, provenance))
+        calls = {**lwpr_percall.per_call(), **lwpr_percall.batch_rates()}
+        if reference_source is not None:
+            calls.update(lwpr_percall.reference_rates(reference_source))
+        lwpr_percall.table(calls)
+        figures.update({key if key.startswith("reference") else f"lwpr_{key}": value for key, value in calls.items()})
     return figures
 
 
