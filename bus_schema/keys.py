@@ -6,8 +6,13 @@ import re
 _NAME = re.compile(r"^[a-z0-9][a-z0-9_-]{0,63}$")
 
 
+def is_name(name) -> bool:
+    """True for a name the bus accepts (lowercase letters, digits, '-' or '_', at most 64)."""
+    return isinstance(name, str) and _NAME.match(name) is not None
+
+
 def check_name(kind: str, name: str) -> str:
-    if not _NAME.match(name):
+    if not is_name(name):
         raise ValueError(f"{kind} name {name!r} must be lowercase letters, digits, '-' or '_' (max 64)")
     return name
 

@@ -102,14 +102,20 @@ def per_call(count: int = 3000) -> dict[str, float]:
     return figures
 
 
-def batch_rates(mirror_samples: int = 5000, cross_epochs: int = 60) -> dict[str, float]:
-    """Updates per second of learn_many from a fresh model, with and without the exact fit: 18 -> 18
-    mirroring with the defaults, and the cross (tutorial settings) over `cross_epochs` epochs."""
+def rate_streams() -> dict:
+    """The streams both libraries' update rates are measured on: task -> (case, our settings, the
+    reference's settings). Mirroring 18 -> 18 with our defaults, 5000 updates; the cross with the
+    tutorial's settings, 60 epochs."""
+    return {"mirror": (mirror_case(0, samples=5000), {}, lwpr_reference.our_defaults(18)),
+            "cross": (cross_case(0, epochs=60), CROSS_LWPR_PARAMS, lwpr_reference.TUTORIAL)}
+
+
+def batch_rates() -> dict[str, float]:
+    """Updates per second of learn_many from a fresh model, with and without the exact fit."""
     figures = {}
-    for task, case, n, params in (("mirror", mirror_case(0, samples=mirror_samples), 18, {}),
-                                  ("cross", cross_case(0, epochs=cross_epochs), 2, CROSS_LWPR_PARAMS)):
+    for task, (case, params, _) in rate_streams().items():
         for label, exact in (("", True), ("_no_exact_fit", False)):
-            def fresh(n=n, n_out=case.ys.shape[1], params=params, exact=exact):
+            def fresh(n=case.xs.shape[1], n_out=case.ys.shape[1], params=params, exact=exact):
                 return make_learner("lwpr", n, n_out, **params, exact_fit=exact)
             us = _us_per_item(lambda m, case=case: m.learn_many(case.xs, case.ys), len(case.xs), repeats=2,
                               fresh=fresh)
@@ -118,18 +124,15 @@ def batch_rates(mirror_samples: int = 5000, cross_epochs: int = 60) -> dict[str,
 
 
 def reference_rates(source: Path) -> dict[str, float]:
-    """The reference library's updates per second on the same streams as batch_rates (its driver process
-    timed whole, so a little under its update loop's own rate): cross, tutorial settings; mirroring with
-    our defaults' settings."""
+    """The reference library's updates per second on rate_streams (its driver process timed whole, so a
+    little under its update loop's own rate)."""
     figures = {}
     with tempfile.TemporaryDirectory() as work:
         binary = lwpr_reference.build(source, Path(work))
-        for key, case, settings in (
-                ("reference_cross_updates_per_s", cross_case(0, epochs=60), lwpr_reference.TUTORIAL),
-                ("reference_mirror_updates_per_s", mirror_case(0, samples=5000), lwpr_reference.our_defaults(18))):
+        for task, (case, _, settings) in rate_streams().items():
             def drive(case=case, settings=settings):
                 lwpr_reference.run(binary, case, settings)
-            figures[key] = 1e6 / _us_per_item(drive, len(case.xs), repeats=3)
+            figures[f"reference_{task}_updates_per_s"] = 1e6 / _us_per_item(drive, len(case.xs), repeats=3)
     return figures
 
 

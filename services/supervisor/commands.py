@@ -82,13 +82,14 @@ def _session(args):
                          f"({reason}){secured}") from None
 
 
-def running_profile(session) -> tuple[str | None, str]:
-    """The one profile whose supervisor runs on this bus: (name, "") or (None, why not)."""
+def running_profile(session, several_hint: str = "") -> tuple[str | None, str]:
+    """The one profile whose supervisor runs on this bus: (name, "") or (None, why not; with several,
+    followed by `several_hint`)."""
     names = sorted({str(r.ok.key_expr).split("/")[-1]
                     for r in session.liveliness().get(supervisor_token("*"), timeout=2.0) if r.ok is not None})
     if len(names) == 1:
         return names[0], ""
-    return None, "no running profile found" if not names else f"several profiles run ({', '.join(names)})"
+    return None, "no running profile found" if not names else f"several profiles run ({', '.join(names)}){several_hint}"
 
 
 def ask_supervisor(session, profile: str, verb: str, parameters: str = "",
@@ -107,9 +108,9 @@ def ask_supervisor(session, profile: str, verb: str, parameters: str = "",
 def _profile(session, args) -> str | None:
     if args.profile:
         return args.profile
-    name, problem = running_profile(session)
+    name, problem = running_profile(session, several_hint=": use --profile")
     if name is None:
-        print(f"{problem}{': use --profile' if 'several' in problem else ''}", file=sys.stderr)
+        print(problem, file=sys.stderr)
     return name
 
 

@@ -21,7 +21,7 @@ import numpy as np
 import zenoh
 
 from bus_schema import (ArenaReset, Command, Frame, InstanceKeys, Input, Proposal, RecordSwitch, RobotKeys, Spaces,
-                        Status, TeachSwitch, check_name, encode)
+                        Status, TeachSwitch, encode, is_name)
 from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.publishers import lossless_publisher
@@ -145,7 +145,7 @@ class Bridge:
     def _named(self, key: str, instance: str, role: str, name: str) -> bool:
         """Names the page shows are the bus's checked names (a key may hold other characters)."""
         known = any(f"{instance}/{r}/{name}" in self.services for r in (role, f"{role}-token"))
-        if _checked(instance, role, name) and (known or len(self.services) < MAX_SERVICES):
+        if all(is_name(n) for n in (instance, role, name)) and (known or len(self.services) < MAX_SERVICES):
             return True
         self.rejects(key, ValueError(f"{key[:120]!r}: not instance/role/name of checked names, or more than "
                                      f"{MAX_SERVICES} services"))
@@ -206,12 +206,3 @@ class Bridge:
                            "teaching": teaching, "services": services,
                            "person": self.teleop.view(), "rejected": self.rejects.total})
         self.series = []
-
-
-def _checked(*names: str) -> bool:
-    try:
-        for name in names:
-            check_name("bus", name)
-    except ValueError:
-        return False
-    return True
