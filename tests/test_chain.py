@@ -75,7 +75,11 @@ def test_chain_extra_appends_the_latest_sample_of_another_stream(router, tmp_pat
         # the probe's subscriptions start a few ticks apart; judge the ticks it saw the inputs before
         judged = [m for m in chained if m.tick >= min(seen.values()) + 5]
         assert len(judged) >= 80
-        lags = [m.tick - seen.get(tuple(m.x[2:]), -10 ** 9) for m in judged]
+        # inputs go out latest-only (drop under congestion): the probe itself may miss one, so an extra it
+        # never saw is not judged, but may only be rare (CI once saw 1 of about 100)
+        unseen = [m.tick for m in judged if tuple(m.x[2:]) not in seen]
+        assert len(unseen) <= 2, f"extras the probe never saw as inputs of `up`, at ticks {unseen}"
+        lags = [m.tick - seen[tuple(m.x[2:])] for m in judged if tuple(m.x[2:]) in seen]
         assert all(0 <= lag <= 5 for lag in lags), f"the extra is a recent sample of `up`: lags {sorted(set(lags))}"
         payload, problem = ask_owner(probe.session, "dl/low/spaces", 5.0)
         assert payload is not None, problem
