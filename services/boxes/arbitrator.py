@@ -205,7 +205,7 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
         held.append(session.declare_subscriber(keys.proposals, inbox.callback("proposal")))
         held.append(session.declare_subscriber(keys.select_learner, inbox.callback("select")))
         held.append(session.declare_queryable(keys.train_recent, inbox.query_callback("recent")))
-        status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name)
+        status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name, inbox=inbox)
         held.append(session.liveliness().declare_token(keys.alive("arbitrator", name)))
         commanding = None  # declared once a platform hears our commands: platforms wait for it to tick
         log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,

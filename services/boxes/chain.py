@@ -89,7 +89,7 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                 session.liveliness().declare_token(down.alive("chain", name))]
         if extra:
             held.append(session.declare_subscriber(InstanceKeys(extra).input, inbox.callback("extra")))
-        status = StatusPublisher(session, down.status("chain", name), "chain", name)
+        status = StatusPublisher(session, down.status("chain", name), "chain", name, inbox=inbox)
         latest_extra = np.zeros(extra_spaces.input.dims) if extra_spaces else np.zeros(0)
         n_up = upper_spaces.output.dims
         rest = (np.asarray(upper_spaces.output.low) + np.asarray(upper_spaces.output.high)) / 2.0

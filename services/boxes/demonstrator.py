@@ -87,7 +87,7 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
             return 0
         box = Demonstrator(session, keys, spaces, make_teacher(teacher, spaces, **params), name, role, log)
         alive = session.liveliness().declare_token(keys.alive(role, name))  # undeclared once unreferenced
-        status = StatusPublisher(session, keys.status(role, name), role, name)
+        status = StatusPublisher(session, keys.status(role, name), role, name, inbox=box.inbox)
         box.listen(role == "default")
         box.switch(start_on and role == "teacher")
 

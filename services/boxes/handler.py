@@ -27,7 +27,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, ta
         pub = sensor_publisher(session, robot_keys.handle)
         held = [session.declare_subscriber(robot_keys.clock, inbox.callback("clock")),
                 session.liveliness().declare_token(keys.alive("handler", name))]
-        status = StatusPublisher(session, keys.status("handler", name), "handler", name)
+        status = StatusPublisher(session, keys.status("handler", name), "handler", name, inbox=inbox)
         log.info("handling %s: tail %s, distractors %s (seed %d)", robot, tail, distractors, seed)
         while not stop:
             newest = None

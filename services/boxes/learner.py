@@ -249,7 +249,7 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
         held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
         held.append(session.declare_queryable(keys.snapshot(name), inbox.query_callback("query")))
         held.append(session.declare_queryable(keys.history(name), inbox.query_callback("query")))
-        status = StatusPublisher(session, keys.status("learner", name), "learner", name)
+        status = StatusPublisher(session, keys.status("learner", name), "learner", name, inbox=inbox)
         held.append(session.liveliness().declare_token(keys.alive("learner", name)))
         log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
         while not stop:

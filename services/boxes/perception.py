@@ -80,7 +80,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
         held = [session.declare_subscriber(robot_keys.camera, inbox.callback("frame")),
                 session.declare_queryable(keys.spaces, inbox.query_callback("spaces")),
                 session.liveliness().declare_token(keys.alive("perception", name))]
-        status = StatusPublisher(session, keys.status("perception", name), "perception", name)
+        status = StatusPublisher(session, keys.status("perception", name), "perception", name, inbox=inbox)
         busy = 0.0
         log.info("blobs for %s -> %d inputs (%s)", ", ".join(detector.colours), spaces.input.dims,
                  ", ".join(spaces.input.names))

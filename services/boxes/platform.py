@@ -152,7 +152,7 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
                                                     inbox.callback("arbitrator"), history=True)]
     if spaces_key:
         held.append(session.declare_queryable(spaces_key, inbox.query_callback("spaces")))
-    status = StatusPublisher(session, keys.status(loop.role, loop.name), loop.role, loop.name)
+    status = StatusPublisher(session, keys.status(loop.role, loop.name), loop.role, loop.name, inbox=inbox)
     period = 1.0 / rate_hz if rate_hz else None
     dt = period or 1.0 / sim_hz
     next_tick = time.monotonic()

@@ -6,11 +6,15 @@ cannot write (unwritable, a full disk) is an error in its status (`dogged ps`) a
 running, counts what it could not record, and tries a new file every few seconds; the loop never
 waits for it. A person may pause it and resume it (`dl/<i>/record`, the page's Record switch): paused,
 it counts what it does not write; the switches themselves are recorded, so a file says why it has a gap.
+What waits to be written is bounded (`--inbox-mb`): past it, samples are dropped on arrival and counted
+(`inbox_dropped`), so a flood or a stalled disk costs those samples, not the process. On a stop, what
+had arrived is written before the file is finished.
 """
 from __future__ import annotations
 
 import argparse
 import collections
+import itertools
 import json
 import socket
 import time
@@ -139,10 +143,18 @@ def ask_spaces(session, keys: list[str], inbox: Inbox) -> None:
         session.get(key, on_reply, timeout=2.0)
 
 
+def take(recording: Recording, items) -> None:
+    for tag, key, raw, log_ns in items:
+        if tag == "sample":
+            recording.on_sample(key, raw, log_ns)
+        else:
+            recording.on_spaces(key, raw)
+
+
 def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str, out: Path, rotate_mb: float,
-         rotate_min: float, flush_s: float) -> int:
+         rotate_min: float, flush_s: float, inbox_mb: float = 256.0) -> int:
     log = setup_logging("recorder", name)
-    stop, inbox = StopFlag(), Inbox()
+    stop, inbox = StopFlag(), Inbox(int(inbox_mb * 2**20))
     repair_unfinished(out, name, log)
     writer = RunWriter(out, name, int(rotate_mb * 1e6), rotate_min * 60.0, flush_s)
     writer.add_metadata("run", {"instances": ",".join(instances), "robots": ",".join(robots),
@@ -159,7 +171,7 @@ def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str,
         held = [session.declare_subscriber(f"{InstanceKeys(i).prefix}/**", on_sample) for i in instances]
         held += [session.declare_subscriber(f"{RobotKeys(r).prefix}/**", on_sample) for r in robots]
         held.append(session.liveliness().declare_token(InstanceKeys(instances[0]).alive("recorder", name)))
-        status = StatusPublisher(session, status_key, "recorder", name)
+        status = StatusPublisher(session, status_key, "recorder", name, inbox=inbox)
         log.info("recording %s into %s", ", ".join([f"dl/{i}" for i in instances] + [f"robot/{r}" for r in robots]),
                  out)
         asked = 0.0
@@ -168,13 +180,10 @@ def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str,
                                                       for k in spaces_keys):
                 ask_spaces(session, spaces_keys, inbox)
                 asked = time.monotonic()
-            for tag, key, raw, log_ns in inbox.drain(0.05):
-                if tag == "sample":
-                    recording.on_sample(key, raw, log_ns)
-                else:
-                    recording.on_spaces(key, raw)
+            take(recording, inbox.drain(0.05))
             recording.upkeep()
             status.maybe_publish(recording.status)
+        take(recording, itertools.islice(inbox.drain(0.0), inbox.waiting))  # what came before the stop, too
         try:
             writer.close()
         except OSError as err:
@@ -194,10 +203,15 @@ def cli(argv=None) -> int:
     parser.add_argument("--rotate-min", type=float, default=30.0, help="start a new file after this long")
     parser.add_argument("--flush-s", type=float, default=0.5,
                         help="finish the chunk in progress this often (what a kill can lose)")
+    parser.add_argument("--inbox-mb", type=float, default=256.0,
+                        help="what may wait to be written (a stalled disk, a flood); past it, samples are "
+                             "dropped on arrival and counted as inbox_dropped")
     add_bus_args(parser)
     a = parser.parse_args(argv)
     if a.rotate_mb <= 0 or a.rotate_min <= 0 or not 0 < a.flush_s <= 1.0:
         parser.error("--rotate-mb and --rotate-min must be > 0, --flush-s in (0, 1]")
+    if not 1.0 <= a.inbox_mb <= 65536.0:
+        parser.error(f"--inbox-mb must be between 1 and 65536 (MiB), got {a.inbox_mb}")
     instances = list(dict.fromkeys(a.instance or ["main"]))
     return main(config_from_args(a), instances, list(dict.fromkeys(a.robot)), a.name, Path(a.out), a.rotate_mb,
-                a.rotate_min, a.flush_s)
+                a.rotate_min, a.flush_s, a.inbox_mb)

@@ -40,7 +40,7 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
         bridge = Bridge(session, instance, robot, person, spaces, server.emit, log)
         server.bridge, bridge.server_counts = bridge, server.counts
         alive = session.liveliness().declare_token(keys.alive("ui", name))
-        bridge.status = StatusPublisher(session, keys.status("ui", name), "ui", name)
+        bridge.status = StatusPublisher(session, keys.status("ui", name), "ui", name, inbox=bridge.inbox)
         bus = threading.Thread(target=bridge.run, args=(done,), name="bus", daemon=True)
         bus.start()
 

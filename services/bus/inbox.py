@@ -1,10 +1,16 @@
 """What a service hears. Callbacks run on Zenoh's threads: they only append (tag, key, bytes) to an
 inbox; the service's own thread decodes, validates and acts, so nothing blocks or calls Zenoh inside a
-callback. A payload that does not decode is rejected: counted by key and logged with its reason."""
+callback. A payload that does not decode is rejected: counted by key and logged with its reason.
+
+An inbox holds at most `max_bytes` of what is waiting: a sender faster than the service (a flood, a
+stalled disk under the recorder) would otherwise grow its memory until the kernel kills it, losing
+everything. Past the budget a message is dropped on arrival, counted (`dropped`, in the service's status
+as `inbox_dropped`) and logged by the service's thread with the reason."""
 from __future__ import annotations
 
 import logging
 import queue
+import threading
 import time
 from collections import Counter
 
@@ -12,31 +18,63 @@ import zenoh
 
 from bus_schema import SchemaError, decode
 
+DEFAULT_MAX_BYTES = 64 * 2**20  # 32 of the largest camera frames the schema allows; some 300k small messages
+ITEM_OVERHEAD = 256  # bytes a queued item costs beyond its payload (tuple, key string, bytes object)
+QUERY_BYTES = 4096  # a query's share: its parameters and payload stay in Zenoh's object
+
 
 class Inbox:
-    """A queue the Zenoh callbacks feed; the service thread drains it."""
+    """A bounded queue the Zenoh callbacks feed; the service thread drains it."""
 
-    def __init__(self):
+    def __init__(self, max_bytes: int = DEFAULT_MAX_BYTES, log: logging.Logger | None = None):
+        if max_bytes < 1:
+            raise ValueError(f"an inbox needs a positive byte budget, got {max_bytes!r}")
+        self.max_bytes = max_bytes
+        self.dropped = 0  # messages refused on arrival because the budget was spent
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._lock = threading.Lock()  # held for an addition: a callback never waits on the service
+        self._held = 0  # bytes waiting
+        self._log = log or logging.getLogger("dogged.inbox")
+        self._reported, self._reported_at = 0, 0.0
 
     def callback(self, tag: str):
-        q = self._queue
+        offer = self._offer
 
         def on_sample(sample: zenoh.Sample) -> None:
-            q.put((tag, str(sample.key_expr), sample.payload.to_bytes(), sample.kind))
+            raw = sample.payload.to_bytes()
+            offer((tag, str(sample.key_expr), raw, sample.kind), len(raw))
         return on_sample
 
     def query_callback(self, tag: str):
         """Queries are answered by the service thread, so the callback only hands them over."""
-        q = self._queue
+        offer = self._offer
 
         def on_query(query: zenoh.Query) -> None:
-            q.put((tag, str(query.key_expr), query, None))
+            offer((tag, str(query.key_expr), query, None), QUERY_BYTES)
         return on_query
 
     def put(self, item: tuple) -> None:
         """Hands an item over as a callback would (a test drives a box with no bus this way)."""
-        self._queue.put(item)
+        payload = item[2] if len(item) > 2 else b""
+        self._offer(item, len(payload) if isinstance(payload, (bytes, bytearray)) else QUERY_BYTES)
+
+    def _offer(self, item: tuple, size: int) -> None:
+        size += ITEM_OVERHEAD
+        with self._lock:
+            if self._held + size > self.max_bytes:
+                self.dropped += 1
+                return
+            self._held += size
+        self._queue.put((item, size))
+
+    @property
+    def held_bytes(self) -> int:
+        return self._held
+
+    @property
+    def waiting(self) -> int:
+        """Items queued now (a service that stops takes these, not a flood that goes on)."""
+        return self._queue.qsize()
 
     def drain(self, timeout: float):
         """What came in: waits up to `timeout` for a first item, then yields every item already queued."""
@@ -47,15 +85,31 @@ class Inbox:
 
     def get(self, timeout: float):
         try:
-            return self._queue.get(timeout=timeout)
+            return self._taken(self._queue.get(timeout=timeout))
         except queue.Empty:
             return None
 
     def get_nowait(self):
         try:
-            return self._queue.get_nowait()
+            return self._taken(self._queue.get_nowait())
         except queue.Empty:
             return None
+
+    def _taken(self, entry: tuple) -> tuple:
+        item, size = entry
+        with self._lock:
+            self._held -= size
+        if self.dropped > self._reported:
+            self._report()
+        return item
+
+    def _report(self) -> None:
+        """Logs new drops from the service's thread, at most once a second."""
+        if time.monotonic() - self._reported_at >= 1.0:
+            self._log.warning("inbox full (%.1f MiB waiting): %d messages dropped on arrival so far; "
+                              "something sends faster than this service takes them", self.max_bytes / 2**20,
+                              self.dropped)
+            self._reported, self._reported_at = self.dropped, time.monotonic()
 
 
 class Rejects:
