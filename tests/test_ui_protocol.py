@@ -2,14 +2,18 @@
 import asyncio
 import json
 import logging
+import socket
+import ssl
 import threading
 
 import pytest
 from websockets.asyncio.client import connect
-from websockets.exceptions import InvalidStatus
+from websockets.exceptions import InvalidMessage, InvalidStatus
 
 from services.ui.protocol import BadMessage, parse
+from services.security import make_certs
 from services.ui.server import UiServer
+from services.ui.tls import TlsError, fingerprint, server_tls
 from tests.harness import free_port
 
 
@@ -52,18 +56,18 @@ class Bridge:
         reply("done", True)
 
 
-def serve(token=None):
+def serve(token=None, tls=None):
     """A UiServer on a free port in a thread; returns (server, port, stop)."""
     hello = {"outputs": {"names": ["forward", "turn"]}, "instance": "main"}
-    server = UiServer(Bridge(), hello, "127.0.0.1", free_port(), token, logging.getLogger("test"))
+    server = UiServer(Bridge(), hello, "127.0.0.1", free_port(), token, logging.getLogger("test"), tls)
     stop, up = threading.Event(), threading.Event()
     threading.Thread(target=lambda: asyncio.run(server.serve(stop, lambda port: up.set())), daemon=True).start()
     assert up.wait(10)
     return server, server.port, stop
 
 
-async def exchange(url, messages, origin=None):
-    async with connect(url, origin=origin) as ws:
+async def exchange(url, messages, origin=None, ssl=None):
+    async with connect(url, origin=origin, ssl=ssl) as ws:
         hello = json.loads(await ws.recv())
         answers = []
         for m in messages:
@@ -148,3 +152,48 @@ def test_names_the_page_would_show_are_checked():
     assert list(bridge.services) == ["main/learner/knn"]
     assert bridge.services["main/learner/knn"]["rates"] == {"learned": 3.0}
     assert bridge.rejects.total == 1
+
+
+def tls_client() -> ssl.SSLContext:
+    """A client that takes any certificate: the tests compare its fingerprint, as a person does in the browser."""
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    context.check_hostname, context.verify_mode = False, ssl.CERT_NONE
+    return context
+
+
+def served_fingerprint(port: int) -> str:
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as raw:
+        with tls_client().wrap_socket(raw) as wrapped:
+            return fingerprint(ssl.DER_cert_to_PEM_cert(wrapped.getpeercert(binary_form=True)).encode())
+
+
+def test_off_loopback_the_page_is_https_with_the_printed_certificate_and_plain_http_gets_nothing():
+    context, printed = server_tls("0.0.0.0")  # no certificate given: one made for the run
+    server, port, stop = serve(token="s3cret", tls=context)
+    try:
+        assert served_fingerprint(port) == printed and len(printed) == 95  # 32 bytes, AB:CD:...
+        hello, _ = asyncio.run(exchange(f"wss://127.0.0.1:{port}/ws?token=s3cret", [], ssl=tls_client()))
+        assert hello["instance"] == "main"
+        with pytest.raises((ConnectionError, OSError, InvalidMessage)):  # no clear-text door
+            asyncio.run(exchange(f"ws://127.0.0.1:{port}/ws?token=s3cret", []))
+        with pytest.raises(InvalidStatus, match="401"):  # TLS is no login: the token still decides
+            asyncio.run(exchange(f"wss://127.0.0.1:{port}/ws?token=wrong", [], ssl=tls_client()))
+    finally:
+        stop.set()
+
+
+def test_a_given_certificate_serves_the_page_and_bad_ones_are_named(tmp_path):
+    [cert] = make_certs(tmp_path, ["operator.alice"])  # `dogged certs` makes one a browser can be told to trust
+    key = cert.with_suffix(".key")
+    context, printed = server_tls("127.0.0.1", cert, key)
+    server, port, stop = serve(tls=context)
+    try:
+        assert served_fingerprint(port) == printed == fingerprint(cert.read_bytes())
+    finally:
+        stop.set()
+    (tmp_path / "junk.pem").write_text("not a certificate")
+    for args, named in [((cert, None), "--tls-key is needed too"), ((None, key), "--tls-cert is needed too"),
+                        ((tmp_path / "none.pem", key), "--tls-cert"), ((tmp_path / "junk.pem", key), "--tls-cert"),
+                        ((cert, tmp_path / "ca.key"), "do not make a certificate chain")]:
+        with pytest.raises(TlsError, match=named):
+            server_tls("127.0.0.1", *args)

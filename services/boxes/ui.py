@@ -1,13 +1,17 @@
 """The ui box (`dogged ui`): a page in a browser where a person watches, teaches, corrects and
 teleoperates the robot (services/ui). On loopback it needs no login; on any other address the
-page's socket needs the token printed at start."""
+page's socket needs the token printed at start, and the page is served over HTTPS (a certificate
+given with --tls-cert / --tls-key, else one made for the run, whose fingerprint is printed)."""
 from __future__ import annotations
 
 import argparse
 import asyncio
 import secrets
+import socket
+import ssl
 import sys
 import threading
+from pathlib import Path
 
 import zenoh
 
@@ -19,13 +23,17 @@ from services.bus.publishers import StatusPublisher
 from services.security import is_loopback
 from services.ui.bridge import FRAME_HEADER, Bridge
 from services.ui.server import UiServer
+from services.ui.tls import TlsError, server_tls
 from services.ui.teleop import TELEOP_REFRESH_S
 
 
-def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, port: int, name: str = "ui") -> int:
+def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, port: int, name: str = "ui",
+         tls: ssl.SSLContext | None = None, fingerprint: str = "") -> int:
     log = setup_logging("ui", name)
     stop, keys, done = StopFlag(), InstanceKeys(instance), threading.Event()
     token = None if is_loopback(f"tcp/{host}:{port}") else secrets.token_urlsafe(18)
+    if token and tls is None:
+        log.warning("--plain-http off loopback: the token and all the page sends cross the network in clear")
     with zenoh.open(conf) as session:
         spaces = fetch_spaces(session, keys, stop, log)
         if spaces is None:
@@ -36,7 +44,7 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
                              "high": list(out.high)},
                  "inputs": {"names": list(spaces.input.names)}, "frame_header_bytes": FRAME_HEADER.size,
                  "teleop_refresh_ms": round(TELEOP_REFRESH_S * 1000)}
-        server = UiServer(None, hello, host, port, token, log)
+        server = UiServer(None, hello, host, port, token, log, tls)
         bridge = Bridge(session, instance, robot, person, spaces, server.emit, log)
         server.bridge, bridge.server_counts = bridge, server.counts
         alive = session.liveliness().declare_token(keys.alive("ui", name))
@@ -45,13 +53,15 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
         bus.start()
 
         def listening(port_now: int) -> None:
-            address = f"http://{'localhost' if host == '127.0.0.1' else host}:{port_now}/"
+            shown = {"127.0.0.1": "localhost", "0.0.0.0": socket.gethostname(), "::": socket.gethostname()}
+            address = f"{'https' if tls else 'http'}://{shown.get(host, host)}:{port_now}/"
             bridge.url = address
             where = f"{address}?token={token}" if token else address
-            log.info("the page: %s (instance %s, robot %s; teleoperation as teacher %s)", where, instance, robot,
-                     person)
+            certificate = f"; certificate SHA-256 {fingerprint}" if tls else ""
+            log.info("the page: %s (instance %s, robot %s; teleoperation as teacher %s%s)", where, instance, robot,
+                     person, certificate)
             if token:  # the one place the token is shown: whoever opens the page needs it
-                print(f"dogged ui: open {where}", file=sys.stderr, flush=True)
+                print(f"dogged ui: open {where}{certificate}", file=sys.stderr, flush=True)
 
         async def serve():
             watcher = asyncio.create_task(_watch(stop, done))
@@ -84,6 +94,12 @@ def cli(argv=None) -> int:
     parser.add_argument("--http", default="127.0.0.1:8080", metavar="HOST:PORT",
                         help="where the page is served (loopback: no login; elsewhere a token is printed); a taken "
                              "port gives way to the next free one of ten")
+    parser.add_argument("--tls-cert", type=Path, metavar="PEM", help="the page's HTTPS certificate (with --tls-key); "
+                        "off loopback without one, a certificate is made for the run and its fingerprint printed")
+    parser.add_argument("--tls-key", type=Path, metavar="PEM", help="the certificate's private key")
+    parser.add_argument("--plain-http", action="store_true",
+                        help="off loopback, serve plain HTTP: the token and the page's traffic cross the network "
+                             "in clear (a trusted network only)")
     parser.add_argument("--name", default="ui")
     add_bus_args(parser)
     a = parser.parse_args(argv)
@@ -96,4 +112,13 @@ def cli(argv=None) -> int:
             check_name(field, value)
         except ValueError as err:
             parser.error(str(err))
-    return main(config_from_args(a), a.instance, a.robot, a.person, host.strip("[]"), int(port), a.name)
+    host = host.strip("[]")
+    tls, fingerprint = None, ""
+    if a.plain_http and (a.tls_cert or a.tls_key):
+        parser.error("--plain-http and --tls-cert/--tls-key contradict each other: give one or the other")
+    if a.tls_cert or a.tls_key or not (a.plain_http or is_loopback(f"tcp/{host}:{port}")):
+        try:
+            tls, fingerprint = server_tls(host, a.tls_cert, a.tls_key)
+        except TlsError as err:
+            parser.error(str(err))
+    return main(config_from_args(a), a.instance, a.robot, a.person, host, int(port), a.name, tls, fingerprint)

@@ -5,7 +5,8 @@ no front-end build: the page is three files in services/ui/static. Down the sock
 (hello, view, reply, error) and binary camera frames (FRAME_HEADER then the JPEG), each page
 getting the newest frame only, so a slow phone never queues seconds of video. Up come checked
 requests (services/ui/protocol.py). On an address other than loopback, the socket needs the token
-printed at start; a socket opened from another site's page (its Origin not this server) is refused.
+printed at start, and the page is served over HTTPS; a socket opened from another site's page (its Origin
+not this server) is refused.
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import hmac
 import json
 import logging
 import mimetypes
+import ssl
 import threading
 import time
 from http import HTTPStatus
@@ -62,8 +64,10 @@ class Page:
 
 
 class UiServer:
-    def __init__(self, bridge, hello: dict, host: str, port: int, token: str | None, log: logging.Logger):
+    def __init__(self, bridge, hello: dict, host: str, port: int, token: str | None, log: logging.Logger,
+                 tls: ssl.SSLContext | None = None):
         self.bridge, self.hello, self.host, self.port, self.token, self.log = bridge, hello, host, port, token, log
+        self.tls = tls  # HTTPS and wss when given (services/ui/tls.py)
         self.pages: set[Page] = set()
         self.n_outputs = len(hello["outputs"]["names"])
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -181,7 +185,7 @@ class UiServer:
         for port in range(self.port, self.port + (PORT_TRIES if self.port else 1)):
             try:
                 server = await serve(self.handle, self.host, port, process_request=self.process_request,
-                                     max_size=SOCKET_MAX_BYTES, ping_interval=5, ping_timeout=10)
+                                     max_size=SOCKET_MAX_BYTES, ping_interval=5, ping_timeout=10, ssl=self.tls)
             except OSError as err:
                 if err.errno != errno.EADDRINUSE or port == self.port + PORT_TRIES - 1:
                     raise
