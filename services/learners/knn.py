@@ -3,8 +3,10 @@
 Remembers the last max_points samples (a ring buffer, so a long stream forgets its
 oldest samples and memory stays bounded) and predicts the inverse-distance weighted
 mean of the k nearest. Confidence is a Gaussian of the nearest neighbour's distance in
-units of length_scale: 1 on a remembered input, falling to 0 far from all of them, and
-lowered beyond the inputs learned (novelty_scale, services.learners.novelty).
+units of a width: 1 on a remembered input, falling to 0 far from all of them, and
+lowered beyond the inputs learned (novelty_scale, services.learners.novelty). The width is
+learned from how fast answers go wrong with distance on the stream itself
+(services.learners.distance_calibration), unless length_scale fixes it.
 """
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import math
 import numpy as np
 
 from .base import Learner, Predictions, check_positive
+from .distance_calibration import KEEP, RECENT, DistanceCalibration
 from .novelty import InputEnvelope
 from .registry import register
 
@@ -20,6 +23,8 @@ _CHUNK = 512  # rows per distance block in predict_many: bounds its temporary me
 
 
 class KNN(Learner):
+    state_classes = (DistanceCalibration,)
+
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, k: int = 5,
                  max_points: int = 10000, length_scale: float | None = None, novelty_scale: float = 0.25):
         super().__init__(n_in, n_out, seed)
@@ -29,9 +34,10 @@ class KNN(Learner):
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"hyper-parameter {name} must be a positive integer, got {value!r}")
-        # unit-scaled inputs: neighbours within ~sqrt(n_in)/2 count as familiar
+        # unit-scaled inputs: neighbours within ~sqrt(n_in)/2 count as familiar, until calibrated
         scale = 0.5 * math.sqrt(n_in) if length_scale is None else check_positive("length_scale", length_scale)
         self._scale = scale
+        self._calibration = DistanceCalibration() if length_scale is None else None
         self._xs = np.zeros((0, self.n_in))  # grows by doubling up to max_points
         self._ys = np.zeros((0, self.n_out))
         self._count = 0
@@ -51,6 +57,35 @@ class KNN(Learner):
 
     def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
         self._envelope.learn(xs)
+        if self._calibration is None:
+            self._store(xs, ys)
+            return
+        first_judged = max(0, xs.shape[0] - KEEP)  # only the newest KEEP judgements are kept anyway
+        self._store(xs[:first_judged], ys[:first_judged])
+        # the span each pair is judged against is the one taught before it, in a batch as one by one
+        low, high = self._taught.low, self._taught.high
+        if first_judged:
+            low, high = np.minimum(low, ys[:first_judged].min(0)), np.maximum(high, ys[:first_judged].max(0))
+        for x, y in zip(xs[first_judged:], ys[first_judged:]):
+            self._judge(x, y, np.where(high >= low, high - low, 0.0))
+            self._store(x[None, :], y[None, :])
+            low, high = np.minimum(low, y), np.maximum(high, y)
+
+    def _judge(self, x: np.ndarray, y: np.ndarray, span: np.ndarray) -> None:
+        """Answer a new pair from the memory without its newest RECENT samples, and note how wrong."""
+        older = self._count - RECENT
+        if older < self.k:
+            return
+        if self._count < self.max_points:
+            stored_x, stored_y = self._xs[:older], self._ys[:older]
+        else:  # the ring's oldest first, from the write position on
+            rows = (self._next + np.arange(older)) % self.max_points
+            stored_x, stored_y = self._xs[rows], self._ys[rows]
+        answer, dist, _ = neighbours(x[None, :], stored_x, stored_y, self.k)
+        share = np.abs(answer[0] - y) / np.maximum(span, 1e-12)
+        self._calibration.judge(float(share.max()), float(dist[0].min()))
+
+    def _store(self, xs: np.ndarray, ys: np.ndarray) -> None:
         take = min(self.max_points - self._count, xs.shape[0])
         if take > 0:
             self._reserve(self._count + take)
@@ -87,22 +122,28 @@ class KNN(Learner):
         return Predictions(ys, confidence * self._envelope.beyond_span(xs, self.novelty_scale), spread)
 
     def _predict_chunk(self, xs: np.ndarray):
-        stored_x, stored_y = self._xs[:self._count], self._ys[:self._count]
-        d2 = (xs * xs).sum(1)[:, None] - 2.0 * xs @ stored_x.T + (stored_x * stored_x).sum(1)[None, :]
-        np.maximum(d2, 0.0, out=d2)
-        k = min(self.k, self.size)
-        if k < self.size:
-            nearest = np.argpartition(d2, k - 1, axis=1)[:, :k]
-        else:
-            nearest = np.tile(np.arange(k), (xs.shape[0], 1))
-        dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
-        weights = 1.0 / (dist + 1e-9)
-        weights /= weights.sum(1, keepdims=True)
-        neighbours = stored_y[nearest]  # (rows, k, n_out)
-        y = np.einsum("rk,rko->ro", weights, neighbours)
-        spread = np.sqrt(np.einsum("rk,rko->ro", weights, (neighbours - y[:, None, :]) ** 2))
-        confidence = np.exp(-0.5 * (dist.min(1) / self._scale) ** 2)
+        y, dist, spread = neighbours(xs, self._xs[:self._count], self._ys[:self._count], self.k)
+        width = self._scale if self._calibration is None else self._calibration.width(self._scale)
+        confidence = np.exp(-0.5 * (dist.min(1) / width) ** 2)
         return y, confidence, spread
+
+
+def neighbours(xs: np.ndarray, stored_x: np.ndarray, stored_y: np.ndarray, k: int):
+    """Per row of xs: the inverse-distance weighted mean of its k nearest, their distances, their spread."""
+    d2 = (xs * xs).sum(1)[:, None] - 2.0 * xs @ stored_x.T + (stored_x * stored_x).sum(1)[None, :]
+    np.maximum(d2, 0.0, out=d2)
+    k = min(k, stored_x.shape[0])
+    if k < stored_x.shape[0]:
+        nearest = np.argpartition(d2, k - 1, axis=1)[:, :k]
+    else:
+        nearest = np.tile(np.arange(k), (xs.shape[0], 1))
+    dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
+    weights = 1.0 / (dist + 1e-9)
+    weights /= weights.sum(1, keepdims=True)
+    near_y = stored_y[nearest]  # (rows, k, n_out)
+    y = np.einsum("rk,rko->ro", weights, near_y)
+    spread = np.sqrt(np.einsum("rk,rko->ro", weights, (near_y - y[:, None, :]) ** 2))
+    return y, dist, spread
 
 
 register("knn", KNN)
