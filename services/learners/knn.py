@@ -40,6 +40,7 @@ class KNN(Learner):
         self._calibration = DistanceCalibration() if length_scale is None else None
         self._xs = np.zeros((0, self.n_in))  # grows by doubling up to max_points
         self._ys = np.zeros((0, self.n_out))
+        self._norms = np.zeros(0)  # each stored row's squared length
         self._count = 0
         self._next = 0  # ring position once memory is full
         self._envelope = InputEnvelope(self.n_in)  # over every input learned, not only those remembered
@@ -76,12 +77,11 @@ class KNN(Learner):
         older = self._count - RECENT
         if older < self.k:
             return
-        if self._count < self.max_points:
-            stored_x, stored_y = self._xs[:older], self._ys[:older]
-        else:  # the ring's oldest first, from the write position on
-            rows = (self._next + np.arange(older)) % self.max_points
-            stored_x, stored_y = self._xs[rows], self._ys[rows]
-        answer, dist, _ = neighbours(x[None, :], stored_x, stored_y, self.k)
+        count = self._count
+        d2 = squared_distances(x[None, :], self._xs[:count], self._norms[:count])
+        newest = self._next if count == self.max_points else count  # one past the newest row of the ring
+        d2[0, (newest - 1 - np.arange(RECENT)) % count] = np.inf
+        answer, dist, _ = neighbours(d2, self._ys[:count], self.k)
         share = np.abs(answer[0] - y) / np.maximum(span, 1e-12)
         self._calibration.judge(float(share.max()), float(dist[0].min()))
 
@@ -91,27 +91,35 @@ class KNN(Learner):
             self._reserve(self._count + take)
             self._xs[self._count:self._count + take] = xs[:take]
             self._ys[self._count:self._count + take] = ys[:take]
+            self._norms[self._count:self._count + take] = np.einsum("ij,ij->i", xs[:take], xs[:take])
             self._count += take
             xs, ys = xs[take:], ys[take:]
         for x, y in zip(xs, ys):  # memory full: overwrite the oldest
             self._xs[self._next] = x
             self._ys[self._next] = y
+            self._norms[self._next] = np.einsum("ij,ij->i", x[None, :], x[None, :])[0]  # as loading sums it
             self._next = (self._next + 1) % self.max_points
 
     def _reserve(self, needed: int) -> None:
         if needed <= self._xs.shape[0]:
             return
         rows = min(self.max_points, max(needed, 2 * self._xs.shape[0], 64))
-        for name in ("_xs", "_ys"):
+        for name in ("_xs", "_ys", "_norms"):
             old = getattr(self, name)
-            grown = np.zeros((rows, old.shape[1]))
+            grown = np.zeros((rows, *old.shape[1:]))
             grown[:self._count] = old[:self._count]
             setattr(self, name, grown)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)  # unused rows stay out of snapshots
         state["_xs"], state["_ys"] = self._xs[:self._count].copy(), self._ys[:self._count].copy()
+        del state["_norms"]  # a cache of the rows' squared lengths: made again on loading
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(state)
+        xs = self._xs  # (a snapshot's arrays are checked by answering a probe, after loading)
+        self._norms = np.einsum("ij,ij->i", xs, xs) if isinstance(xs, np.ndarray) and xs.ndim == 2 else np.zeros(0)
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         n = xs.shape[0]
@@ -122,21 +130,27 @@ class KNN(Learner):
         return Predictions(ys, confidence * self._envelope.beyond_span(xs, self.novelty_scale), spread)
 
     def _predict_chunk(self, xs: np.ndarray):
-        y, dist, spread = neighbours(xs, self._xs[:self._count], self._ys[:self._count], self.k)
+        count = self._count
+        y, dist, spread = neighbours(squared_distances(xs, self._xs[:count], self._norms[:count]), self._ys[:count],
+                                     self.k)
         width = self._scale if self._calibration is None else self._calibration.width(self._scale)
         confidence = np.exp(-0.5 * (dist.min(1) / width) ** 2)
         return y, confidence, spread
 
 
-def neighbours(xs: np.ndarray, stored_x: np.ndarray, stored_y: np.ndarray, k: int):
-    """Per row of xs: the inverse-distance weighted mean of its k nearest, their distances, their spread."""
-    d2 = (xs * xs).sum(1)[:, None] - 2.0 * xs @ stored_x.T + (stored_x * stored_x).sum(1)[None, :]
-    np.maximum(d2, 0.0, out=d2)
-    k = min(k, stored_x.shape[0])
-    if k < stored_x.shape[0]:
+def squared_distances(xs: np.ndarray, stored_x: np.ndarray, stored_norms: np.ndarray) -> np.ndarray:
+    """(rows of xs, stored rows) squared distances, from the stored rows' squared lengths (one BLAS call)."""
+    d2 = np.einsum("ij,ij->i", xs, xs)[:, None] - 2.0 * xs @ stored_x.T + stored_norms[None, :]
+    return np.maximum(d2, 0.0, out=d2)
+
+
+def neighbours(d2: np.ndarray, stored_y: np.ndarray, k: int):
+    """Per row of d2: the inverse-distance weighted mean of its k nearest, their distances, their spread."""
+    k = min(k, d2.shape[1])
+    if k < d2.shape[1]:
         nearest = np.argpartition(d2, k - 1, axis=1)[:, :k]
     else:
-        nearest = np.tile(np.arange(k), (xs.shape[0], 1))
+        nearest = np.tile(np.arange(k), (d2.shape[0], 1))
     dist = np.sqrt(np.take_along_axis(d2, nearest, axis=1))
     weights = 1.0 / (dist + 1e-9)
     weights /= weights.sum(1, keepdims=True)
