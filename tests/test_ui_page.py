@@ -14,6 +14,22 @@ from services.ui.headless import open_page
 from tests.harness import Probe, free_port, wait_until
 
 
+# the page's sound, heard as it is made: headless chromium runs a real AudioContext (with no speaker) and
+# has speechSynthesis; this listens to the tones started and the sentences spoken, and lets them through
+LISTEN = """
+window.__heard = [];
+const startTone = OscillatorNode.prototype.start;
+OscillatorNode.prototype.start = function (when) {
+  window.__heard.push(["tone", this.frequency.value, this.context.state]);
+  return startTone.call(this, when);
+};
+if (window.speechSynthesis) {
+  const speak = speechSynthesis.speak.bind(speechSynthesis);
+  speechSynthesis.speak = (u) => { window.__heard.push(["say", u.text]); speak(u); };
+}
+"""
+
+
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("ui") / "run"
@@ -22,7 +38,7 @@ def live(tmp_path_factory):
     held, probe = run.record(run.keys.train), Probe(run.endpoint)  # (the subscriber lives while held)
     train = run.recorded[run.keys.train]
     try:
-        with open_page(f"http://127.0.0.1:{port}/") as page:
+        with open_page(f"http://127.0.0.1:{port}/", before=LISTEN) as page:
             page.wait_for_selector("#ears[data-mode]", timeout=30_000)
             yield run, page, train, run_dir, probe
     finally:
@@ -49,9 +65,12 @@ def test_page_loads_and_shows_the_services_and_the_robot_asking(live):
                "the learner listed alive")
     for role in ("aibo/aibo", "arbitrator/arbitrator", "teacher/seeker", "perception/perception"):
         assert page.locator(f'tr[data-service="main/{role}"] td.alive').count() == 1, role
-    # untaught, the student is unsure: the ears are green and the page asks
+    # untaught, the student is unsure: the ears are green and the page asks, with a chime and aloud
     wait_until(lambda: ears(page) == "unsure", 20, "the unsure ears")
     assert "unsure" in page.inner_text("#ears-text")
+    heard = wait_until(lambda: len(h := page.evaluate("window.__heard")) >= 3 and h, 5, "the page asking aloud")
+    assert [h[:2] for h in heard] == [["tone", 660], ["tone", 880], ["say", "I am unsure. Teach me."]], heard
+    assert heard[0][2] == "running", f"the chime's audio context is {heard[0][2]}"
     shot(page, run_dir, "unsure")
 
 

@@ -14,8 +14,9 @@ ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--
 
 
 @contextmanager
-def open_page(url: str, width: int = 1100, height: int = 1300):
-    """A Playwright page at `url` in headless chromium; closed (and the browser with it) on exit."""
+def open_page(url: str, width: int = 1100, height: int = 1300, before: str | None = None):
+    """A Playwright page at `url` in headless chromium; closed (and the browser with it) on exit.
+    `before`: JavaScript run in the page before its own (a test's listener on the page's sound)."""
     if not CHROMIUM.exists():
         raise FileNotFoundError(f"no chromium at {CHROMIUM}: `sudo apt-get install chromium` (make test does, as "
                                 "root), or set DOGGED_CHROMIUM")
@@ -24,6 +25,8 @@ def open_page(url: str, width: int = 1100, height: int = 1300):
         browser = pw.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=ARGS)
         try:
             page = browser.new_page(viewport={"width": width, "height": height})
+            if before:
+                page.add_init_script(before)
             page.goto(url)
             yield page
         finally:
