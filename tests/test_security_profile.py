@@ -1,12 +1,15 @@
 """A profile turns security on with one setting (issue 12): `dogged certs` makes its identities,
 `dogged up` runs it over mutual TLS with access control, an operator's certificate steers it and a
-teacher's cannot; and `dogged up` will not open a router beyond loopback without it."""
+teacher's cannot, a person at its page (the ui's operator certificate) switches teaching and drives;
+and `dogged up` will not open a router beyond loopback without it."""
+import asyncio
 import json
 import os
 import subprocess
 import sys
 
 import pytest
+from websockets.asyncio.client import connect
 
 from services.security import is_loopback
 from services.supervisor.profile import ProfileError, load_profile
@@ -21,12 +24,53 @@ router = "{router}"
 """
 
 
-def write_profile(tmp_path, router, certs=None):
+# a person's page in the profile: its certificate is an operator's (BOX_ROLES)
+PAGE = """
+[services.ui]
+box = "ui"
+args = ["--http", "127.0.0.1:{port}", "--robot", "none"]
+"""
+
+
+def write_profile(tmp_path, router, certs=None, page_port=None):
     path = tmp_path / "suptest.toml"
     security = f'security = "{certs}"' if certs else ""
-    path.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state")
+    page = PAGE.format(port=page_port) if page_port else ""
+    path.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state") + page
                     + ZENOH.format(router=router, security=security))
     return path
+
+
+async def at_the_page(port: int) -> list[str]:
+    """A person at the page of a secured profile: teaching switched off and on, then driving; what the
+    page showed at each step (the bus under access control carries the operator's every action)."""
+    seen = []
+    async with connect(f"ws://127.0.0.1:{port}/ws") as ws:
+
+        async def until(what, condition, send=None, timeout=30.0):
+            deadline = asyncio.get_running_loop().time() + timeout
+            while asyncio.get_running_loop().time() < deadline:
+                if send:
+                    await ws.send(send)
+                try:
+                    msg = await asyncio.wait_for(ws.recv(), 0.1)
+                except TimeoutError:
+                    continue
+                if isinstance(msg, str) and (m := json.loads(msg))["type"] == "view" and condition(m):
+                    seen.append(what)
+                    return
+            raise AssertionError(f"the page never showed {what}; saw {seen}")
+
+        await until("the sine teacher teaching", lambda v: "teacher" in v["teaching"])
+        await ws.send('{"op": "teach", "teacher": "teacher", "on": false}')
+        await until("teaching switched off", lambda v: "teacher" not in v["teaching"])
+        # driving: the page refreshes a held command every 100 ms, as the person's page does
+        await until("the robot driven by the person", lambda v: (v["command"] or {}).get("source") == "teacher/person",
+                    send='{"op": "teleop", "y": [0.5, -0.5]}')
+        await ws.send('{"op": "teleop", "y": [null, null]}')
+        await ws.send('{"op": "teach", "teacher": "teacher", "on": true}')
+        await until("teaching switched on again", lambda v: "teacher" in v["teaching"])
+    return seen
 
 
 def cli(*args, identity=None, certs=None, timeout=60):
@@ -38,11 +82,11 @@ def cli(*args, identity=None, certs=None, timeout=60):
 
 
 def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
-    certs, endpoint = tmp_path / "certs", f"tls/127.0.0.1:{free_port()}"
-    profile = write_profile(tmp_path, endpoint, certs)
+    certs, endpoint, page_port = tmp_path / "certs", f"tls/127.0.0.1:{free_port()}", free_port()
+    profile = write_profile(tmp_path, endpoint, certs, page_port)
     made = cli("certs", str(certs), "--profile", str(profile), "--identity", "operator.bob")
     assert made.returncode == 0, made.stderr
-    assert "8 certificates" in made.stdout and (certs / "teacher.teacher.pem").is_file()
+    assert "9 certificates" in made.stdout and (certs / "operator.ui.pem").is_file()
     sup = dogged("up", str(profile), "--quiet", log=tmp_path / "supervisor.log")
     try:
         def rows(identity="operator.bob"):
@@ -51,10 +95,13 @@ def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
 
         ready = wait_until(lambda: (r := rows()) and all(x["state"] == "ready" for x in r.values()) and r, 90,
                            "every service ready over TLS")
-        assert set(ready) == {"router", "recorder", "platform", "teacher", "learner", "arbitrator"}
+        assert set(ready) == {"router", "recorder", "platform", "teacher", "learner", "arbitrator", "ui"}
         learning = wait_until(lambda: rows().get("learner", {}).get("rates", {}).get("learned", 0) > 50, 30,
                               "the learner learning over TLS")
         assert learning
+        assert asyncio.run(at_the_page(page_port)) == [
+            "the sine teacher teaching", "teaching switched off", "the robot driven by the person",
+            "teaching switched on again"]
         refused = cli("--connect", endpoint, "down", identity="teacher.teacher", certs=certs, timeout=30)
         assert refused.returncode != 0 and "did not answer" in refused.stderr
         assert rows()["arbitrator"]["state"] == "ready" and sup.poll() is None  # still up
