@@ -26,7 +26,7 @@ QUERY_BYTES = 4096  # a query's share: its parameters and payload stay in Zenoh'
 class Inbox:
     """A bounded queue the Zenoh callbacks feed; the service thread drains it."""
 
-    def __init__(self, max_bytes: int = DEFAULT_MAX_BYTES, log: logging.Logger | None = None):
+    def __init__(self, max_bytes: int = DEFAULT_MAX_BYTES):
         if max_bytes < 1:
             raise ValueError(f"an inbox needs a positive byte budget, got {max_bytes!r}")
         self.max_bytes = max_bytes
@@ -34,7 +34,7 @@ class Inbox:
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._lock = threading.Lock()  # held for an addition: a callback never waits on the service
         self._held = 0  # bytes waiting
-        self._log = log or logging.getLogger("dogged.inbox")
+        self._log = logging.getLogger("dogged.inbox")  # (the service's log format names the service)
         self._reported, self._reported_at = 0, 0.0
 
     def callback(self, tag: str):
@@ -54,7 +54,7 @@ class Inbox:
         return on_query
 
     def put(self, item: tuple) -> None:
-        """Hands an item over as a callback would (a test drives a box with no bus this way)."""
+        """Hands an item over as a callback does (the recorder's own callback; a test driving a box with no bus)."""
         payload = item[2] if len(item) > 2 else b""
         self._offer(item, len(payload) if isinstance(payload, (bytes, bytearray)) else QUERY_BYTES)
 
