@@ -137,33 +137,47 @@ def identities_in(directory: Path) -> list[str]:
 
 
 # --- certificates ------------------------------------------------------------------------------
+def certificate(cn: str, key, valid_days: int, extensions, issuer=None):
+    """An X.509 certificate for `key`, named `cn`, signed by `issuer` = (its name, its key), or by
+    itself; valid from five minutes ago (clocks differ) for `valid_days`."""
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes
+    from cryptography.x509.oid import NameOID
+
+    now = datetime.datetime.now(datetime.UTC)
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)])
+    issuer_name, issuer_key = issuer or (name, key)
+    builder = (x509.CertificateBuilder().subject_name(name).issuer_name(issuer_name)
+               .public_key(key.public_key()).serial_number(x509.random_serial_number())
+               .not_valid_before(now - datetime.timedelta(minutes=5))
+               .not_valid_after(now + datetime.timedelta(days=valid_days)))
+    for extension, critical in extensions:
+        builder = builder.add_extension(extension, critical=critical)
+    return builder.sign(issuer_key, hashes.SHA256())
+
+
+def key_pem(key) -> bytes:
+    """A private key as unencrypted PKCS#8 PEM (kept in a 0600 file, or never on disk)."""
+    from cryptography.hazmat.primitives import serialization
+    return key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                             serialization.NoEncryption())
+
+
 def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[Path]:
     """A CA (kept, or made once) and a key and certificate per identity, in `directory`."""
     from cryptography import x509
-    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives import serialization
     from cryptography.hazmat.primitives.asymmetric import ec
-    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+    from cryptography.x509.oid import ExtendedKeyUsageOID
 
     for cn in identities:  # all checked before anything is written
         role_of(cn)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    now = datetime.datetime.now(datetime.UTC)
-
-    def certificate(cn: str, key, issuer_name, issuer_key, valid_days: int, extensions) -> x509.Certificate:
-        builder = (x509.CertificateBuilder().subject_name(x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)]))
-                   .issuer_name(issuer_name or x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)]))
-                   .public_key(key.public_key()).serial_number(x509.random_serial_number())
-                   .not_valid_before(now - datetime.timedelta(minutes=5))
-                   .not_valid_after(now + datetime.timedelta(days=valid_days)))
-        for extension, critical in extensions:
-            builder = builder.add_extension(extension, critical=critical)
-        return builder.sign(issuer_key or key, hashes.SHA256())
 
     def write(key, cert, stem: str) -> Path:
         key_path, cert_path = directory / f"{stem}.key", directory / f"{stem}.pem"
-        key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                               serialization.NoEncryption()))
+        key_path.write_bytes(key_pem(key))
         key_path.chmod(0o600)
         cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
         return cert_path
@@ -173,8 +187,7 @@ def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[
         ca_cert = x509.load_pem_x509_certificate((directory / "ca.pem").read_bytes())
     else:
         ca_key = ec.generate_private_key(ec.SECP256R1())
-        ca_cert = certificate("dogged-ca", ca_key, None, None, 10 * days,
-                              [(x509.BasicConstraints(ca=True, path_length=0), True)])
+        ca_cert = certificate("dogged-ca", ca_key, 10 * days, [(x509.BasicConstraints(ca=True, path_length=0), True)])
         write(ca_key, ca_cert, "ca")
     loopback = [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]
     leaf = [(x509.SubjectAlternativeName(loopback), False),
@@ -183,5 +196,6 @@ def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[
     written = []
     for cn in identities:
         key = ec.generate_private_key(ec.SECP256R1())
-        written.append(write(key, certificate(cn, key, ca_cert.subject, ca_key, days, leaf), cn))
+        written.append(write(key, certificate(cn, key, days, leaf, issuer=(ca_cert.subject, ca_key)), cn))
     return written
+

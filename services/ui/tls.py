@@ -10,13 +10,14 @@ against the one it shows.
 """
 from __future__ import annotations
 
-import datetime
 import hashlib
 import ipaddress
 import socket
 import ssl
 import tempfile
 from pathlib import Path
+
+from services.security import certificate, key_pem
 
 
 class TlsError(ValueError):
@@ -66,9 +67,9 @@ def _read(path: Path | None, flag: str) -> bytes:
 def _self_signed(host: str) -> tuple[bytes, bytes]:
     """A certificate for this run, valid for the served host, this machine's name and loopback."""
     from cryptography import x509
-    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives import serialization
     from cryptography.hazmat.primitives.asymmetric import ec
-    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+    from cryptography.x509.oid import ExtendedKeyUsageOID
 
     names = {"localhost", socket.gethostname()}
     addresses = {ipaddress.ip_address("127.0.0.1")}
@@ -79,17 +80,9 @@ def _self_signed(host: str) -> tuple[bytes, bytes]:
     except ValueError:
         names.add(host)
     key = ec.generate_private_key(ec.SECP256R1())
-    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, f"dogged ui on {socket.gethostname()}")])
-    now = datetime.datetime.now(datetime.UTC)
-    cert = (x509.CertificateBuilder().subject_name(name).issuer_name(name).public_key(key.public_key())
-            .serial_number(x509.random_serial_number())
-            .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=30))
-            .add_extension(x509.SubjectAlternativeName([x509.DNSName(n) for n in sorted(names)]
-                                                       + [x509.IPAddress(a) for a in sorted(addresses)]), False)
-            .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH]), False)
-            .add_extension(x509.BasicConstraints(ca=False, path_length=None), True)
-            .sign(key, hashes.SHA256()))
-    key_pem = key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                serialization.NoEncryption())
-    return cert.public_bytes(serialization.Encoding.PEM), key_pem
-
+    cert = certificate(f"dogged ui on {socket.gethostname()}", key, 30, [
+        (x509.SubjectAlternativeName([x509.DNSName(n) for n in sorted(names)]
+                                     + [x509.IPAddress(a) for a in sorted(addresses)]), False),
+        (x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH]), False),
+        (x509.BasicConstraints(ca=False, path_length=None), True)])
+    return cert.public_bytes(serialization.Encoding.PEM), key_pem(key)
