@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .base import Learner, Predictions, check_positive
+from .base import Learner, Predictions, TaughtRange, check_positive
 from .distance_calibration import KEEP, RECENT, DistanceCalibration
 from .novelty import InputEnvelope
 from .registry import register
@@ -63,21 +63,20 @@ class KNN(Learner):
             return
         first_judged = max(0, xs.shape[0] - KEEP)  # only the newest KEEP judgements are kept anyway
         self._store(xs[:first_judged], ys[:first_judged])
-        # the span each pair is judged against is the one taught before it, in a batch as one by one
-        low, high = self._taught.low, self._taught.high
-        if first_judged:
-            low, high = np.minimum(low, ys[:first_judged].min(0)), np.maximum(high, ys[:first_judged].max(0))
+        # each pair is judged against the span taught before it, in a batch as one by one
+        taught = TaughtRange(self.n_out)
+        taught.low, taught.high = self._taught.low, self._taught.high
+        taught.learn(ys[:first_judged])
         for x, y in zip(xs[first_judged:], ys[first_judged:]):
-            self._judge(x, y, np.where(high >= low, high - low, 0.0))
+            self._judge(x, y, taught.span)
             self._store(x[None, :], y[None, :])
-            low, high = np.minimum(low, y), np.maximum(high, y)
+            taught.learn(y)
 
     def _judge(self, x: np.ndarray, y: np.ndarray, span: np.ndarray) -> None:
         """Answer a new pair from the memory without its newest RECENT samples, and note how wrong."""
-        older = self._count - RECENT
-        if older < self.k:
-            return
         count = self._count
+        if count - RECENT < self.k:
+            return
         d2 = squared_distances(x[None, :], self._xs[:count], self._norms[:count])
         newest = self._next if count == self.max_points else count  # one past the newest row of the ring
         d2[0, (newest - 1 - np.arange(RECENT)) % count] = np.inf
