@@ -1,4 +1,6 @@
 """Inbox, the one queue every box reads its bus events from: drain, and its byte budget."""
+import os
+import signal
 import threading
 import time
 
@@ -52,3 +54,34 @@ def test_the_budget_holds_under_callbacks_from_many_threads():
 def test_an_inbox_without_a_budget_is_refused():
     with pytest.raises(ValueError, match="byte budget"):
         Inbox(max_bytes=0)
+
+
+def test_a_wait_ends_at_its_timeout_while_signals_interrupt_it():
+    """CPython 3.11's SimpleQueue.get(timeout) waits until the next put once a signal lands past its
+    deadline: a quiet service then never saw its SIGTERM (with SimpleQueue here the longest wait ran
+    into the 2 s feeder below). The inbox's wait must end on time however often it is interrupted."""
+    inbox, done = Inbox(), threading.Event()
+    previous = signal.signal(signal.SIGUSR2, lambda *_: None)
+
+    def pester():  # signals land on the main thread's wait, at all phases of it
+        while not done.wait(0.0037):
+            os.kill(os.getpid(), signal.SIGUSR2)
+
+    def feed():  # a broken wait would still end here, not hang the test run
+        while not done.wait(2.0):
+            inbox.put(("t", "k", b"", None))
+    threads = [threading.Thread(target=pester), threading.Thread(target=feed)]
+    for thread in threads:
+        thread.start()
+    longest, gets, until = 0.0, 0, time.monotonic() + 3.0
+    try:
+        while time.monotonic() < until:
+            started = time.monotonic()
+            inbox.get(0.005)
+            longest, gets = max(longest, time.monotonic() - started), gets + 1
+    finally:
+        done.set()
+        for thread in threads:
+            thread.join()
+        signal.signal(signal.SIGUSR2, previous)
+    assert longest < 1.0, f"a 5 ms wait took {longest:.2f} s under signals ({gets} waits)"

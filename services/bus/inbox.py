@@ -5,14 +5,18 @@ callback. A payload that does not decode is rejected: counted by key and logged 
 An inbox holds at most `max_bytes` of what is waiting: a sender faster than the service (a flood, a
 stalled disk under the recorder) would otherwise grow its memory until the kernel kills it, losing
 everything. Past the budget a message is dropped on arrival, counted (`dropped`, in the service's status
-as `inbox_dropped`) and logged by the service's thread with the reason."""
+as `inbox_dropped`) and logged by the service's thread with the reason.
+
+The queue is a deque under a Condition, not queue.SimpleQueue: CPython 3.11's SimpleQueue.get(timeout)
+waits forever (until the next put) when a signal interrupts it after its deadline, so a SIGTERM could
+leave a quiet service stuck until the supervisor killed it (and a recorder's file unfinished).
+threading's lock re-checks its deadline after a signal (tests/test_inbox.py gets under a storm of signals)."""
 from __future__ import annotations
 
 import logging
-import queue
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 
 import zenoh
 
@@ -31,8 +35,9 @@ class Inbox:
             raise ValueError(f"an inbox needs a positive byte budget, got {max_bytes!r}")
         self.max_bytes = max_bytes
         self.dropped = 0  # messages refused on arrival because the budget was spent
-        self._queue: queue.SimpleQueue = queue.SimpleQueue()
-        self._lock = threading.Lock()  # held for an addition: a callback never waits on the service
+        self._items: deque = deque()  # (item, size)
+        self._lock = threading.Lock()  # held for an addition or a removal: a callback never waits on the service
+        self._arrived = threading.Condition(self._lock)
         self._held = 0  # bytes waiting
         self._log = logging.getLogger("dogged.inbox")  # (the service's log format names the service)
         self._reported, self._reported_at = 0, 0.0
@@ -60,12 +65,13 @@ class Inbox:
 
     def _offer(self, item: tuple, size: int) -> None:
         size += ITEM_OVERHEAD
-        with self._lock:
+        with self._arrived:
             if self._held + size > self.max_bytes:
                 self.dropped += 1
                 return
             self._held += size
-        self._queue.put((item, size))
+            self._items.append((item, size))
+            self._arrived.notify()
 
     @property
     def held_bytes(self) -> int:
@@ -74,7 +80,7 @@ class Inbox:
     @property
     def waiting(self) -> int:
         """Items queued now (a service that stops takes these, not a flood that goes on)."""
-        return self._queue.qsize()
+        return len(self._items)
 
     def drain(self, timeout: float):
         """What came in: waits up to `timeout` for a first item, then yields every item already queued."""
@@ -84,24 +90,20 @@ class Inbox:
             item = self.get_nowait()
 
     def get(self, timeout: float):
-        try:
-            return self._taken(self._queue.get(timeout=timeout))
-        except queue.Empty:
-            return None
-
-    def get_nowait(self):
-        try:
-            return self._taken(self._queue.get_nowait())
-        except queue.Empty:
-            return None
-
-    def _taken(self, entry: tuple) -> tuple:
-        item, size = entry
-        with self._lock:
+        """The oldest item, waiting up to `timeout` seconds for one; None if none came."""
+        with self._arrived:
+            if not self._items and timeout > 0:
+                self._arrived.wait(timeout)  # (a signal during the wait cannot stretch it: see above)
+            if not self._items:
+                return None
+            item, size = self._items.popleft()
             self._held -= size
         if self.dropped > self._reported:
             self._report()
         return item
+
+    def get_nowait(self):
+        return self.get(0.0)
 
     def _report(self) -> None:
         """Logs new drops from the service's thread, at most once a second."""
