@@ -197,3 +197,22 @@ def test_a_given_certificate_serves_the_page_and_bad_ones_are_named(tmp_path):
                         ((cert, tmp_path / "ca.key"), "do not make a certificate chain")]:
         with pytest.raises(TlsError, match=named):
             server_tls("127.0.0.1", *args)
+
+
+def test_what_the_bus_thread_hands_over_after_the_server_stopped_is_dropped_not_raised():
+    """The bus thread may emit while the event loop closes (a dogged ui stopping); it used to die with
+    'Event loop is closed', leaving the person's teaching held."""
+    hello = {"outputs": {"names": ["forward", "turn"]}, "instance": "main"}
+    server = UiServer(Bridge(), hello, "127.0.0.1", free_port(), None, logging.getLogger("test"))
+    stop, up = threading.Event(), threading.Event()
+    thread = threading.Thread(target=lambda: asyncio.run(server.serve(stop, lambda port: up.set())))
+    thread.start()
+    assert up.wait(10) and server.loop is not None
+    stop.set()
+    thread.join(10)
+    assert server.loop is None  # let go before its loop closed
+    server.emit("view", {"type": "view"})
+    closed = asyncio.new_event_loop()
+    closed.close()
+    server.loop = closed  # the window between the check and the hand-over
+    server.emit("view", {"type": "view"})

@@ -65,8 +65,11 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
 
         async def serve():
             watcher = asyncio.create_task(_watch(stop, done))
-            await server.serve(done, listening)
-            watcher.cancel()
+            try:
+                await server.serve(done, listening)
+            finally:
+                done.set()  # the bus thread ends while the loop still runs
+                watcher.cancel()
         try:
             asyncio.run(serve())
         except OSError as err:

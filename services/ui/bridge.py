@@ -74,17 +74,22 @@ class Bridge:
         self.declare()
         handlers = {"command": self.on_command, "learner": self.on_learner, "input": self.on_input,
                     "status": self.on_status, "frame": self.on_frame, "alive": self.on_alive}
-        while not stop.is_set():
-            for tag, key, raw, kind in self.inbox.drain(0.02):
-                if tag == "page":
-                    self.on_page(key, *raw)
-                else:
-                    handlers[tag](key, raw, kind)
-            self.teleop.expire()
-            self.maybe_view()
-            if self.status is not None:
-                self.status.maybe_publish(self.report)
-        self.teleop.let_go()
+        try:
+            while not stop.is_set():
+                for tag, key, raw, kind in self.inbox.drain(0.02):
+                    if tag == "page":
+                        self.on_page(key, *raw)
+                    else:
+                        handlers[tag](key, raw, kind)
+                self.teleop.expire()
+                self.maybe_view()
+                if self.status is not None:
+                    self.status.maybe_publish(self.report)
+        finally:  # however it ends: the person's teaching is let go, no callback comes after
+            self.teleop.let_go()
+            for held in self._held:
+                held.undeclare()
+            self._held = []
 
     # --- what the bus says ------------------------------------------------------------------------
     def on_command(self, key, raw, _):

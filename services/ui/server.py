@@ -80,8 +80,12 @@ class UiServer:
     # --- from the bus thread ---------------------------------------------------------------------
     def emit(self, kind: str, payload) -> None:
         """Called by the bridge on its own thread: hands over to the event loop, never blocks."""
-        if self.loop is not None:
-            self.loop.call_soon_threadsafe(self._fan_out, kind, payload)
+        loop = self.loop
+        if loop is not None:
+            try:
+                loop.call_soon_threadsafe(self._fan_out, kind, payload)
+            except RuntimeError:  # the loop closed since: the server stopped, no page is left to tell
+                pass
 
     def _fan_out(self, kind: str, payload) -> None:
         for page in self.pages:
@@ -192,11 +196,14 @@ class UiServer:
                 self.log.warning("port %d is taken: trying %d", port, port + 1)
                 continue
             break
-        async with server:
-            self.port = server.sockets[0].getsockname()[1]
-            on_listening(self.port)
-            while not stop.is_set():
-                await asyncio.sleep(0.1)
+        try:
+            async with server:
+                self.port = server.sockets[0].getsockname()[1]
+                on_listening(self.port)
+                while not stop.is_set():
+                    await asyncio.sleep(0.1)
+        finally:
+            self.loop = None  # before the loop closes: the bus thread stops handing over
 
 
 def _response(status: HTTPStatus, body: bytes, content_type: str) -> Response:
