@@ -112,6 +112,30 @@ def test_a_service_that_will_not_stop_says_where_it_is_stuck_before_it_is_killed
     assert f'File "{stuck}", line 7' in proc.stdout.read()
 
 
+
+def test_a_service_killed_at_its_stop_is_marked_so_the_supervisor_says_so(tmp_path):
+    """`dogged down` ends with a warning naming a service that took a SIGKILL: what it had not written
+    (a recording's index, a summary) may be missing, and the run's log says where to look."""
+    import sys
+
+    from services.supervisor.process import ManagedProcess
+    from services.supervisor.profile import ServiceSpec
+
+    stuck, quits = tmp_path / "stuck.py", tmp_path / "quits.py"
+    stuck.write_text("import signal, time\nsignal.signal(signal.SIGTERM, signal.SIG_IGN)\nprint('ready', flush=True)\n"
+                     "time.sleep(60)\n")
+    quits.write_text("import time\nprint('ready', flush=True)\ntime.sleep(60)\n")
+    procs = {name: ManagedProcess(ServiceSpec(name, "platform", "main"), [sys.executable, str(path)], tmp_path,
+                                  echo=False) for name, path in (("stuck", stuck), ("quits", quits))}
+    for proc in procs.values():
+        proc.start()
+    for proc in procs.values():
+        wait(lambda p=proc: "ready" in p.log_path.read_text(), 20, f"{proc.spec.name} started")
+        proc.stop(timeout=1.0)
+    assert procs["stuck"].killed
+    assert not procs["quits"].killed
+    assert "did not stop within 1 s" in procs["stuck"].log_path.read_text()
+
 SMALL = PROFILE.split("\n[services.learner]")[0]  # its platform and teacher only
 
 

@@ -27,6 +27,7 @@ class ManagedProcess:
         self.died_at = 0.0  # when the supervisor saw it exit (monotonic)
         self.last_exit: int | str | None = None  # an exit code, or "not ready" (stopped at its ready_timeout_s)
         self.tail: deque[str] = deque(maxlen=2000)
+        self.killed = False  # its last stop took a SIGKILL
         self._lock = threading.Lock()
 
     @property
@@ -39,7 +40,7 @@ class ManagedProcess:
         # a new session: a Ctrl-C in the terminal reaches the supervisor only, which stops services in order
         self.proc = subprocess.Popen(self.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                      stdin=subprocess.DEVNULL, env=env, start_new_session=True)
-        self.state, self.started_at = "starting", time.monotonic()
+        self.state, self.started_at, self.killed = "starting", time.monotonic(), False
         self._line(f"--- started pid {self.proc.pid}: {' '.join(self.command)}")
         threading.Thread(target=self._pump, args=(self.proc,), daemon=True).start()
 
@@ -96,6 +97,7 @@ class ManagedProcess:
             except subprocess.TimeoutExpired:
                 self._line(f"--- did not stop within {timeout:.0f} s: its stacks follow in the log, then SIGKILL")
                 dump_stacks_then_kill(self.proc)
+                self.killed = True
         self.state = "stopped"
 
     def describe(self) -> dict:

@@ -324,7 +324,13 @@ class Supervisor:
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
         self.procs["router"].stop()
-        log.info("stopped; no process left")
+        killed = [proc for proc in self.procs.values() if proc.killed]
+        if killed:  # what they had not written (a recording's index, a summary) may be missing: say so
+            log.warning("stopped; no process left, but %s did not stop on SIGTERM and %s killed: see %s",
+                        ", ".join(p.spec.name for p in killed), "was" if len(killed) == 1 else "were",
+                        ", ".join(str(p.log_path) for p in killed))
+        else:
+            log.info("stopped; no process left")
         return 0
 
 
