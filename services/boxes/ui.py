@@ -49,6 +49,7 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
         server.bridge, bridge.server_counts = bridge, server.counts
         alive = session.liveliness().declare_token(keys.alive("ui", name))
         bridge.status = StatusPublisher(session, keys.status("ui", name), "ui", name, inbox=bridge.inbox)
+        bridge.declare()  # here, not on the bus thread (Bridge.declare says why)
         bus = threading.Thread(target=bridge.run, args=(done,), name="bus", daemon=True)
         bus.start()
 

@@ -58,6 +58,13 @@ class Bridge:
 
     # --- wiring ---------------------------------------------------------------------------------
     def declare(self) -> None:
+        """Called on the main thread, before `run`'s thread starts. zenoh-python runs each Python callback
+        on a thread of its own, which inherits the declaring thread's daemon flag: declared from a daemon
+        thread, those threads were not waited for at exit and woke into a finalizing interpreter as the
+        session closed, which aborts the process ('FATAL: exception not rethrown', seen in CI)."""
+        if threading.current_thread().daemon:
+            raise RuntimeError("the bridge's subscriptions must be declared on a thread exit waits for, "
+                               "not a daemon thread")
         s, cb = self.session, self.inbox.callback
         self._held = [s.declare_subscriber(self.keys.command, cb("command")),
                       s.declare_subscriber(self.keys.proposal("learner", "*"), cb("learner")),
@@ -71,7 +78,6 @@ class Bridge:
         self.inbox.put(("page", op, (fields, reply), None))
 
     def run(self, stop: threading.Event) -> None:
-        self.declare()
         handlers = {"command": self.on_command, "learner": self.on_learner, "input": self.on_input,
                     "status": self.on_status, "frame": self.on_frame, "alive": self.on_alive}
         try:
