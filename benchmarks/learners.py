@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
-from benchmarks.lib import lwpr_percall, lwpr_versus  # noqa: E402
+from benchmarks.lib import lwpr_percall, lwpr_reference, lwpr_versus  # noqa: E402
 from benchmarks.lib.tasks import (  # noqa: E402
     CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse,
     three_outputs, three_outputs_samples, worst_error,
@@ -233,4 +233,7 @@ if __name__ == "__main__":
                         help="a checkout of the reference LWPR library (github.com/ipab-slmc/lwpr) to build and "
                              "measure on the same draws; without it its recorded figures are shown")
     arguments = parser.parse_args()
+    if arguments.reference_source is not None and (missing := lwpr_reference.missing_files(arguments.reference_source)):
+        parser.error(f"--reference-source {arguments.reference_source} is not a checkout of ipab-slmc/lwpr "
+                     f"(no {', '.join(missing[:3])}); a bare git mirror needs a work tree: git worktree add")
     print(json.dumps(main(arguments.quick, arguments.reference_source)))

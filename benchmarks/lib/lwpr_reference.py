@@ -41,6 +41,12 @@ RECORDED = {  # measure(binary, 10) on this machine: draws 0-9 as lwpr_draws.py 
 }
 
 
+def missing_files(source: Path) -> list[str]:
+    """What a checkout of ipab-slmc/lwpr at `source` lacks for the build ([] if nothing)."""
+    needed = [f"src/{name}" for name in LIBRARY_FILES] + ["include/lwpr.h"]
+    return [name for name in needed if not (source / name).is_file()]
+
+
 def build(source: Path, into: Path) -> Path:
     """Compile the driver against the library's checkout at `source`; returns the executable."""
     include = into / "include"
@@ -48,8 +54,10 @@ def build(source: Path, into: Path) -> Path:
     (include / "lwpr_config.h").write_text('#include "lwpr_config_def.h"\n#define LIBRARY_API\n')
     binary = into / "lwpr_drive"
     sources = [str(source / "src" / name) for name in LIBRARY_FILES]
-    subprocess.run(["gcc", "-O3", f"-I{include}", f"-I{source / 'include'}", "-o", str(binary), str(DRIVER),
-                    *sources, "-lm"], check=True, capture_output=True)
+    done = subprocess.run(["gcc", "-O3", f"-I{include}", f"-I{source / 'include'}", "-o", str(binary), str(DRIVER),
+                           *sources, "-lm"], capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"building the reference LWPR from {source} failed:\n{done.stderr[-2000:]}")
     return binary
 
 
