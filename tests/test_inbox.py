@@ -85,3 +85,21 @@ def test_a_wait_ends_at_its_timeout_while_signals_interrupt_it():
             thread.join()
         signal.signal(signal.SIGUSR2, previous)
     assert longest < 1.0, f"a 5 ms wait took {longest:.2f} s under signals ({gets} waits)"
+
+
+def test_callbacks_are_refused_on_a_daemon_thread():
+    """zenoh-python's callback threads inherit the declaring thread's daemon flag; a daemon's are not
+    waited for at exit, and one waking into the finalizing interpreter aborts the process."""
+    inbox, made = Inbox(), {}
+
+    def make(name):
+        try:
+            made[name] = (inbox.callback("t"), inbox.query_callback("q"))
+        except RuntimeError as err:
+            made[name] = err
+    for name, daemon in (("daemon", True), ("worker", False)):
+        thread = threading.Thread(target=make, args=(name,), daemon=daemon)
+        thread.start()
+        thread.join(10)
+    assert isinstance(made["daemon"], RuntimeError) and "daemon thread" in str(made["daemon"])
+    assert all(callable(c) for c in made["worker"])

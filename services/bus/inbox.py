@@ -43,6 +43,7 @@ class Inbox:
         self._reported, self._reported_at = 0, 0.0
 
     def callback(self, tag: str):
+        _not_on_a_daemon_thread()
         offer = self._offer
 
         def on_sample(sample: zenoh.Sample) -> None:
@@ -52,6 +53,7 @@ class Inbox:
 
     def query_callback(self, tag: str):
         """Queries are answered by the service thread, so the callback only hands them over."""
+        _not_on_a_daemon_thread()
         offer = self._offer
 
         def on_query(query: zenoh.Query) -> None:
@@ -112,6 +114,16 @@ class Inbox:
                               "something sends faster than this service takes them", self.max_bytes / 2**20,
                               self.dropped)
             self._reported, self._reported_at = self.dropped, time.monotonic()
+
+
+def _not_on_a_daemon_thread() -> None:
+    """A callback is made as it is declared. zenoh-python runs each Python callback on a thread of its
+    own that inherits the declaring thread's daemon flag: declared from a daemon thread, those threads
+    are not waited for at exit and wake into a finalizing interpreter as the session closes, which
+    aborts the process ('FATAL: exception not rethrown': `dogged ui`, in CI). So: declare on the main
+    thread, or another that exit waits for."""
+    if threading.current_thread().daemon:
+        raise RuntimeError("a bus callback must be declared on a thread exit waits for, not a daemon thread")
 
 
 class Rejects:

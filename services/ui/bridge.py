@@ -58,13 +58,8 @@ class Bridge:
 
     # --- wiring ---------------------------------------------------------------------------------
     def declare(self) -> None:
-        """Called on the main thread, before `run`'s thread starts. zenoh-python runs each Python callback
-        on a thread of its own, which inherits the declaring thread's daemon flag: declared from a daemon
-        thread, those threads were not waited for at exit and woke into a finalizing interpreter as the
-        session closed, which aborts the process ('FATAL: exception not rethrown', seen in CI)."""
-        if threading.current_thread().daemon:
-            raise RuntimeError("the bridge's subscriptions must be declared on a thread exit waits for, "
-                               "not a daemon thread")
+        """Called on the main thread, before `run`'s daemon thread starts (Inbox.callback refuses a
+        daemon thread, and says why)."""
         s, cb = self.session, self.inbox.callback
         self._held = [s.declare_subscriber(self.keys.command, cb("command")),
                       s.declare_subscriber(self.keys.proposal("learner", "*"), cb("learner")),
