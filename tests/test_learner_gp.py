@@ -51,10 +51,11 @@ def test_an_output_never_moved_costs_no_factor_and_answers_its_value():
     model = make_learner("gp", 4, 2, seed=0)
     xs = np.random.default_rng(2).uniform(-1, 1, (50, 4))
     model.learn_many(xs, np.tile([0.3, -1.0], (50, 1)))
-    assert not model._factored and model.size == 50
+    leaf, = model.parts
+    assert not leaf._factored and model.size == 50
     assert np.array_equal(model.predict_many(xs).y, np.tile([0.3, -1.0], (50, 1)))
     model.learn_one(xs[0], [0.5, -1.0])  # something varies: the posterior is built from the memory
-    assert model._factored and model.size == 51
+    assert leaf._factored and model.size == 51
 
 
 def test_degenerate_streams_never_give_nan():
@@ -115,10 +116,11 @@ def test_served_live_a_fit_runs_aside_and_the_last_one_sees_all_the_teaching():
         live.learn_one(x, y)
         still.learn_one(x, y)
     def settled() -> bool:
-        live.predict_one(xs[0])  # applies a finished fit, and starts the next if teaching went on
-        return live._pending is None
+        for leaf in live.parts:  # applies a finished fit, and starts the next if teaching went on
+            leaf.predict_one(leaf.remembered_inputs()[0])
+        return all(leaf._pending is None for leaf in live.parts)
     poll(settled, 60.0)
-    assert live._pending is None and live._last_fit == live._y_count == len(xs)
+    assert all(leaf._last_fit == leaf._y_count for leaf in live.parts)
     probe = task.stream(10.0, 30.0, "trajectory")[::7]
     gap = np.abs(live.predict_many(probe).y - still.predict_many(probe).y).max()
     assert gap < 0.05, gap

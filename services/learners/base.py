@@ -109,6 +109,22 @@ class TaughtRange:
         return np.where(self.high >= self.low, (self.low + self.high) / 2, 0.0)
 
 
+# Beyond the inputs it was shown, a student's answer fades to the taught mean: over FADE of each input's
+# taught span past its edge (exp(-d^2 / 2), d the excess in such units, summed over inputs). Not sooner: a
+# student a little past what it was shown often still knows, and a choice faded towards the taught mean is
+# a tie (CartPole's teacher keeps the pole within +-0.04 rad; its episodes start anywhere within +-0.05:
+# faded over a tenth of the span, or a half, the student pushed one way from the start and the pole fell
+# within 22 steps, in 2 to 4 episodes of 6). A model's trend
+# (a linear part, a local linear fit, the nearest sample's answer) carried away from the teaching drives
+# the robot to its bounds where it was never shown them: a pendulum student held full torque and spun it
+# for minutes. The taught mean is the answer with the least expected distance to everything taught and
+# never an extreme unless every lesson was; a hold means nothing to a learner (what is still for a torque?),
+# and a default controller, where there is one, already drives when the student is unsure (arbitration).
+# Inputs that never varied while taught (their span under JITTER_SHARE of the median's) do not count: the
+# paper's orange ball, new along a colour input, is chased like the pink one while the robot asks.
+FADE, JITTER_SHARE = 1.0, 1e-3
+
+
 class Learner:
     """Base of every learner; see the module docstring for what a subclass provides."""
 
@@ -124,6 +140,8 @@ class Learner:
         self.seed = int(seed)
         self._n_learned = 0
         self._taught = TaughtRange(self.n_out)
+        self._shown = TaughtRange(self.n_in)  # the inputs' range while taught (FADE)
+        self._taught_mean, self._taught_count = np.zeros(self.n_out), 0
         self._n_broken = 0  # answers the model gave as NaN or inf, replaced by _sane
 
     # --- the contract -------------------------------------------------------------
@@ -133,6 +151,7 @@ class Learner:
         y = as_vector(y, self.n_out, "outputs")
         self._learn_one(x, y)
         self._taught.learn(y)
+        self._note_shown(x, y)
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
@@ -141,22 +160,33 @@ class Learner:
         ys = as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0])
         self._learn_many(xs, ys)
         self._taught.learn(ys)
+        self._note_shown(xs, ys)
         self._n_learned += xs.shape[0]
+
+    def _note_shown(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        """The inputs' taught range and the outputs' running mean (FADE), for rows or one pair."""
+        xs, ys = xs.reshape(-1, self.n_in), ys.reshape(-1, self.n_out)
+        self._shown.learn(xs)
+        self._taught_count += len(ys)
+        self._taught_mean = self._taught_mean + (ys.sum(0) - len(ys) * self._taught_mean) / self._taught_count
 
     def predict_one(self, x) -> Prediction:
         x = as_vector(x, self.n_in, "inputs")
-        many = self._sane(self._predict_many(x[None, :]))
+        many = self._sane(self._predict_many(x[None, :]), x[None, :])
         interval = None if many.interval is None else many.interval[0]
         return Prediction(many.y[0], float(many.confidence[0]), interval)
 
     def predict_many(self, xs) -> Predictions:
-        return self._sane(self._predict_many(as_matrix(xs, self.n_in, "inputs")))
+        xs = as_matrix(xs, self.n_in, "inputs")
+        return self._sane(self._predict_many(xs), xs)
 
-    def _sane(self, p: Predictions) -> Predictions:
-        """Answers held to the taught range (`_bound`), and never NaN or inf: a row a model could not
+    def _sane(self, p: Predictions, xs: np.ndarray | None = None) -> Predictions:
+        """Answers beyond the inputs shown faded to the taught mean (FADE; when `xs`, the queries, are
+        given), held to the taught range (`_bound`), and never NaN or inf: a row a model could not
         answer gets the middle of the taught range with confidence 0 (its model is at fault; the
         robot must not be)."""
-        y, confidence = self._bound(p.y), np.nan_to_num(p.confidence, nan=0.0, posinf=0.0, neginf=0.0)
+        y = p.y if xs is None else self._fade(xs, p.y)
+        y, confidence = self._bound(y), np.nan_to_num(p.confidence, nan=0.0, posinf=0.0, neginf=0.0)
         broken = ~np.isfinite(y).all(axis=1)
         if broken.any():
             y = np.where(broken[:, None], self._taught.middle(), y)
@@ -164,15 +194,37 @@ class Learner:
             self._n_broken += int(broken.sum())
         return Predictions(y, np.clip(confidence, 0.0, 1.0), p.interval)
 
-    def _sane_one(self, y: np.ndarray, confidence: float, interval: np.ndarray | None) -> Prediction:
-        """`_sane` for one answer, for learners with a fast predict_one of their own."""
+    def _sane_one(self, y: np.ndarray, confidence: float, interval: np.ndarray | None,
+                  x: np.ndarray | None = None) -> Prediction:
+        """`_sane` for one answer, for learners with a fast predict_one of their own (x: the query)."""
         many = self._sane(Predictions(y[None, :], np.array([confidence]), None if interval is None else interval[None,
-                                                                                                                 :]))
+                                                                                                                 :]),
+                          None if x is None else x[None, :])
         return Prediction(many.y[0], float(many.confidence[0]), None if interval is None else many.interval[0])
 
     def _bound(self, y: np.ndarray) -> np.ndarray:
         """Hold answers to the taught range; a learner with a rule of its own overrides this."""
         return self._taught.bound(y)
+
+    def _fade(self, xs: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Each row of y toward the taught mean by how far its query lies beyond the inputs shown, over FADE
+        of each varied input's span."""
+        span = self._shown.span
+        if not span.any() or not self._fades():
+            return y
+        return fade_toward(self._taught_mean, self._shown, self._fade_widths(span), xs, y)
+
+    def _fade_widths(self, span: np.ndarray) -> np.ndarray:
+        """Per input, the width over which answers fade beyond what was shown: FADE of its taught span,
+        none (inf) for an input that never varied; a learner that knows which inputs matter widens it
+        along those that do not (a distractor beyond its range changes nothing)."""
+        moved = span[span > 0.0]
+        return np.where(span > JITTER_SHARE * np.median(moved), FADE * span, np.inf)
+
+    def _fades(self) -> bool:
+        """Whether answers beyond the inputs shown fade (FADE); a learner that knows its map goes on (the GP
+        of a linear one) says no."""
+        return True
 
     def serve_live(self) -> None:
         """A service is about to serve a live loop with this learner: one whose upkeep can take long
@@ -252,6 +304,19 @@ class Learner:
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}(n_in={self.n_in}, n_out={self.n_out}, seed={self.seed}, {params})"
+
+
+def fade_toward(mean: np.ndarray, shown: TaughtRange, width: np.ndarray, xs: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Rows of y toward `mean` by exp(-d^2 / 2), d how far each query lies beyond the range `shown`, in
+    units of `width` per input (inf: that input does not count)."""
+    if not np.all(shown.high >= shown.low):
+        return y  # nothing shown yet
+    counted = np.isfinite(width)
+    excess = np.maximum(np.maximum(shown.low - xs, xs - shown.high), 0.0)[:, counted]
+    if not excess.any():
+        return y
+    weight = np.exp(-0.5 * ((excess / width[counted]) ** 2).sum(1))
+    return mean + weight[:, None] * (y - mean)
 
 
 def check_positive(name: str, value, strictly: bool = True) -> float:

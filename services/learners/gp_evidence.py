@@ -97,15 +97,36 @@ def negative_log_posterior(theta: np.ndarray, xs: np.ndarray, ys: np.ndarray, pr
     return value, grad
 
 
+def loo_residuals(xs: np.ndarray, ys: np.ndarray, found: Evidence, log_sn_floor: float) -> np.ndarray:
+    """The leave-one-out residuals (n, k) of normalised ys under the fit `found`: each sample against what
+    the fit makes of all the others (Rasmussen & Williams 2006, 5.4.2). What the fit would answer where it
+    was not shown: comparable between a region and its halves (gp_split), where the evidence (and the
+    leave-one-out density, which rewards each half's own noise level) favours any cut of a trajectory."""
+    z = xs / np.exp(found.log_ell)
+    smooth, linear = kernel_shapes(z)
+    sf2, rho = math.exp(2.0 * found.log_sf), linear_share(found.logit_linear)
+    sn2 = math.exp(2.0 * max(found.log_sn, log_sn_floor))
+    gram = sf2 * ((1.0 - rho) * smooth + rho * linear) + sn2 * np.eye(len(xs))
+    try:
+        chol = np.linalg.cholesky(gram)
+    except np.linalg.LinAlgError:
+        return np.full(ys.shape, np.inf)
+    inverse_chol = solve_triangular(chol, np.eye(len(xs)), lower=True)
+    inverse = inverse_chol.T @ inverse_chol
+    return (inverse @ ys) / np.diag(inverse)[:, None]
+
+
 def fit(xs: np.ndarray, ys: np.ndarray, start: Evidence, prior_ell_sd: float, noise_floor: float,
-        max_iterations: int) -> Evidence:
+        max_iterations: int, log_sn_ceiling: float = 0.0) -> tuple[Evidence, float]:
     """The MAP hyper-parameters for normalised xs (n, d) and ys (n, k): the better of a climb from
     `start` (the last fit) and one from the prior, so that an early fit to a few noiseless-looking
-    samples (short length scales, no noise) cannot hold every later one in its local optimum."""
+    samples (short length scales, no noise) cannot hold every later one in its local optimum. The noise's
+    log sd stays between the floor's and `log_sn_ceiling`. Also returns the minimised -log posterior."""
     d = xs.shape[1]
     prior_log_ell = math.log(math.sqrt(d)) + SPARSITY
     log_sn_floor = 0.5 * math.log(noise_floor)
-    bounds = [LOG_ELL_BOUNDS] * d + [LOG_SF_BOUNDS, (log_sn_floor, 0.0), LOGIT_SHARE_BOUNDS]
+    log_sn_ceiling = min(max(log_sn_ceiling, log_sn_floor + math.log(2.0)), 0.0)
+    bounds = [LOG_ELL_BOUNDS] * d + [LOG_SF_BOUNDS, (log_sn_floor, log_sn_ceiling), LOGIT_SHARE_BOUNDS]
     low, high = [b[0] for b in bounds], [b[1] for b in bounds]
     starts = [np.clip(np.concatenate([e.log_ell, [e.log_sf, e.log_sn, e.logit_linear]]), low, high)
               for e in (start, prior_start(d))]
@@ -115,7 +136,7 @@ def fit(xs: np.ndarray, ys: np.ndarray, start: Evidence, prior_ell_sd: float, no
                           args=(xs, ys, prior_log_ell, prior_ell_sd, log_sn_floor), options={"maxiter": max_iterations})
         if np.all(np.isfinite(result.x)) and result.fun < best_value:
             best, best_value = result.x, result.fun
-    return Evidence(best[:d].copy(), float(best[d]), float(best[d + 1]), float(best[d + 2]))
+    return Evidence(best[:d].copy(), float(best[d]), float(best[d + 1]), float(best[d + 2])), float(best_value)
 
 
 @dataclass(frozen=True)
@@ -141,29 +162,50 @@ def first_hyper(n_in: int, n_out: int) -> Hyper:
 
 
 def fit_memory(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, prior_ell_sd: float,
-               noise_floor: float, max_iterations: int) -> Hyper:
+               noise_floor: float, max_iterations: int, noise_ceiling: np.ndarray | None = None) -> Hyper:
     """The hyper-parameters for remembered samples xs (m, n_in), ys (m, n_out), fitted on up to
-    `fit_points` of them spread over the memory, in units where each varying input and output has unit
-    spread; the climb starts from `last` (and from the prior, see fit). A pure function of its
-    arguments, so it may run on another thread."""
+    `fit_points` of them spread over the memory (see fit_rows). A pure function of its arguments, so it
+    may run on another thread."""
+    rows = spread_rows(len(xs), fit_points)
+    return fit_rows(xs[rows], ys[rows], last, prior_ell_sd, noise_floor, max_iterations, noise_ceiling)[0]
+
+
+def spread_rows(m: int, count: int) -> np.ndarray:
+    """Up to `count` row numbers spread evenly over m rows."""
+    return np.unique(np.linspace(0, m - 1, min(count, m)).round().astype(int))
+
+
+def fit_rows(xs: np.ndarray, ys: np.ndarray, last: Hyper, prior_ell_sd: float, noise_floor: float,
+             max_iterations: int, noise_ceiling: np.ndarray | None = None) -> tuple[Hyper, float]:
+    """The hyper-parameters for samples xs (n, n_in), ys (n, n_out), in units where each varying input
+    and output has unit spread; the climb starts from `last` (and from the prior, see fit). The noise's
+    sd stays under `noise_ceiling` (per output, in the outputs' units) for every output that varies.
+    Also returns the fit's leave-one-out squared error, summed over samples and outputs in the outputs'
+    own units (comparable between fits of different rows, as a split's halves against the whole:
+    gp_split), inf when nothing varies."""
     mu, out_sd, centre, in_sd = ys.mean(0), ys.std(0), xs.mean(0), xs.std(0)
     varying_out = out_sd > 1e-12 * (1.0 + np.abs(mu))
     varied = in_sd > 1e-12 * (1.0 + np.abs(centre))
     if varied.any():  # and more than jitter (see JITTER_SHARE)
         varied &= in_sd > JITTER_SHARE * np.median(in_sd[varied])
     log_ell, log_sf, log_sn, logit_linear = last.log_ell.copy(), last.log_sf, last.log_sn, last.logit_linear
+    loo_error = math.inf
     if varying_out.any() and varied.any():
-        rows = np.unique(np.linspace(0, len(xs) - 1, min(fit_points, len(xs))).round().astype(int))
-        norm_x = (xs[rows][:, varied] - centre[varied]) / in_sd[varied]
-        norm_y = (ys[rows][:, varying_out] - mu[varying_out]) / out_sd[varying_out]
+        norm_x = (xs[:, varied] - centre[varied]) / in_sd[varied]
+        norm_y = (ys[:, varying_out] - mu[varying_out]) / out_sd[varying_out]
         start = Evidence(log_ell[varied] - np.log(in_sd[varied]), log_sf, log_sn, logit_linear)
-        found = fit(norm_x, norm_y, start, prior_ell_sd, noise_floor, max_iterations)
+        ceiling = 0.0
+        if noise_ceiling is not None:
+            ceiling = math.log(max(float(np.min(noise_ceiling[varying_out] / out_sd[varying_out])), 1e-300))
+        found, _ = fit(norm_x, norm_y, start, prior_ell_sd, noise_floor, max_iterations, ceiling)
         log_ell[varied] = found.log_ell + np.log(in_sd[varied])
         log_sf, log_sn, logit_linear = found.log_sf, found.log_sn, found.logit_linear
+        residuals = loo_residuals(norm_x, norm_y, found, 0.5 * math.log(noise_floor)) * out_sd[varying_out]
+        loo_error = float((residuals * residuals).sum())
     # an input that never varied keeps the prior's length scale in its own units: moving it is new
     # (the envelope says so) but changes the answer little, as the paper's orange ball did
     log_ell[~varied] = prior_start(len(centre)).log_ell[0]
-    return Hyper(mu, centre, log_ell, log_sf, log_sn, logit_linear, varied)
+    return Hyper(mu, centre, log_ell, log_sf, log_sn, logit_linear, varied), loo_error
 
 
 def prior_start(d: int) -> Evidence:
@@ -172,5 +214,5 @@ def prior_start(d: int) -> Evidence:
     return Evidence(np.full(d, math.log(math.sqrt(d))), 0.0, math.log(0.1), 0.0)
 
 
-__all__ = ["Evidence", "Hyper", "first_hyper", "fit", "fit_memory", "linear_share", "negative_log_posterior",
-           "prior_start"]
+__all__ = ["Evidence", "Hyper", "first_hyper", "fit", "fit_memory", "fit_rows", "linear_share",
+           "negative_log_posterior", "prior_start", "spread_rows"]

@@ -133,6 +133,7 @@ class LWPR(Learner):
     # --- learning ---------------------------------------------------------------------
     def learn_one(self, x, y) -> None:
         x, y = kernel_ready(x), kernel_ready(y)
+        raw = x
         if x.shape != (self.n_in,) or y.shape != (self.n_out,):
             as_vector(x, self.n_in, "inputs")  # raises with the right message
             as_vector(y, self.n_out, "outputs")
@@ -148,10 +149,11 @@ class LWPR(Learner):
             self._reject(status, x, y)
         if status == 2:  # the kernel widened the taught range
             taught.refresh()
+        self._note_shown(raw, y)
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
-        xs = kernel_ready(as_matrix(xs, self.n_in, "inputs"))
+        xs = raw = kernel_ready(as_matrix(xs, self.n_in, "inputs"))
         ys = kernel_ready(as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0]))
         if self._input_scale is not None:
             with np.errstate(over="ignore"):
@@ -170,6 +172,7 @@ class LWPR(Learner):
                 self._n_learned += row
                 self._reject(status, xs[row], ys[row])
         self._taught.learn(ys)
+        self._note_shown(raw, ys)
         self._n_learned += xs.shape[0]
 
     def _reject(self, status: int, x: np.ndarray, y: np.ndarray) -> None:
@@ -192,7 +195,7 @@ class LWPR(Learner):
 
     # --- prediction -----------------------------------------------------------------
     def predict_one(self, x) -> Prediction:
-        x = kernel_ready(x)
+        x = raw = kernel_ready(x)
         if x.shape != (self.n_in,):
             as_vector(x, self.n_in, "inputs")
         if self._input_scale is not None:
@@ -205,6 +208,9 @@ class LWPR(Learner):
             as_vector(x, self.n_in, "inputs")
         if confidence == -2.0:  # an answer the model could not give
             return self._sane_one(y, 0.0, interval)
+        shown = self._shown
+        if (raw < shown.low).any() or (raw > shown.high).any():  # beyond what was shown: fade (base.FADE)
+            y = taught.bound(self._fade(raw[None, :], y[None, :])[0])
         # tuple.__new__ skips NamedTuple's Python-level __new__: 0.2 µs of a 2.5 µs call
         return _new_tuple(Prediction, (y, confidence, interval))
 
@@ -212,6 +218,24 @@ class LWPR(Learner):
         xs = kernel_ready(xs) if self._input_scale is None else xs * self._input_scale
         ys, confidence, intervals = _kernels().predict_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs)
         return Predictions(ys, confidence, intervals)
+
+    def _fade_widths(self, span: np.ndarray) -> np.ndarray:
+        """base.FADE, and no narrower along an input than the fields' own width there (1 / sqrt(D_ii) of the
+        narrowest field, in the input's units): the metric learns which inputs matter, and a distractor
+        moving beyond its taught range (a leg, while the head mirrors the tail) must not fade the answer."""
+        widths = super()._fade_widths(span)
+        n, used = self.n_in, int(self._n_rfs.max(initial=0))
+        if used == 0:
+            return widths
+        start = layout.N_SCALARS + layout.N_VECTORS * n + layout.METRIC_D * n * n
+        diagonal = self._rfs[:, :used, start:start + n * n][:, :, ::n + 1]  # (outputs, fields, n): D_ii
+        alive = np.arange(used)[None, :] < self._n_rfs[:, None]
+        sharpest = np.where(alive[:, :, None], diagonal, 0.0).max(axis=(0, 1))
+        with np.errstate(divide="ignore"):
+            field = 1.0 / np.sqrt(sharpest)
+        if self._input_scale is not None:
+            field = field / self._input_scale
+        return np.maximum(widths, field)
 
     # --- introspection and snapshots ----------------------------------------------------
     @property

@@ -57,6 +57,9 @@ class PerOutput(Learner):
     def _bound(self, y: np.ndarray) -> np.ndarray:
         return y  # each part holds its own answers
 
+    def _fades(self) -> bool:
+        return False  # and fades them beyond what it was shown
+
     @property
     def n_broken(self) -> int:
         return self._n_broken + sum(part.n_broken for part in self._parts)

@@ -1,0 +1,436 @@
+"""One Gaussian process over a bounded memory, that learns from its teaching which inputs matter and
+says how sure it is of its answer (Rasmussen & Williams 2006; relevance as in their ch. 5): a leaf of
+the wired learner, `gp` (gp.py), which splits a leaf where its halves are better fitted apart.
+
+It remembers up to `memory` samples and answers with the exact posterior over them. A pair within a
+thousandth of the data's spread of a remembered one adds nothing and is not remembered: a robot held
+still gives thousands of them. Past `memory`, the most redundant are thinned
+(gp_memory: where the memory is densest, the older of two close samples), so every region taught
+keeps its examples and a newer lesson outweighs an older one there. One length scale per input and
+the outputs' amplitude and noise are refitted by maximum a posteriori evidence (gp_evidence) after
+`first_fit` samples and then each time half as many again, 8, 12, 18, 27, ... (never on fewer
+samples than inputs: those cannot tell which inputs matter), then every `refit_every`, and early when
+the teaching surprises the fit or spreads an input further than the fit saw: inputs that do not
+explain the teaching (distractors, readings dragged along) grow long length scales and stop
+mattering. The teacher is assumed right (the paper's premise): the noise a fit may call the
+teaching's is at most half of `near` of the taught span, so inconsistency beyond that is structure to
+be learned, not averaged away. Serving live (`serve_live`, the learner service) a fit runs on a
+thread of its own and is applied when done; teaching that went on meanwhile is fitted next, so when
+teaching stops the last fit has seen it all. Far from what it was taught the posterior reverts to the
+taught mean, and an answer is held to the taught range plus 10 % of its span, unless the evidence
+says the map is linear: a linear map extends past the part of it that was shown (the mirroring task,
+from 15-30 samples), a curved one's trend is not followed away from what was taught.
+
+Confidence is the probability that the answer is within `near` of the taught span from the map the
+teacher shows, under the posterior, beyond the chance of that under the prior: p = erf(near * span /
+(sd * sqrt 2)) for the least sure output, sd the map's posterior sd (what more teaching would make
+surer, not the teaching's own noise: asking where the teacher is inconsistent teaches nothing), and
+(p - p0) / (1 - p0) with p0 the same under the prior's sd (an untaught answer is within near=0.2 of
+the span with probability 0.31, which must not read as support), times a ramp over the first 2 n_in samples (a handful
+of samples says little about how much the outputs vary) and, along inputs that never varied (whose
+relevance no fit could learn), the input envelope's novelty discount (services.learners.novelty).
+"""
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
+
+import numpy as np
+from scipy.linalg import solve_triangular
+from scipy.special import erf
+
+from . import gp_kernels
+from .base import FADE, Learner, Predictions, check_positive, check_range, kernel_ready
+from .gp_evidence import Hyper, first_hyper, linear_share
+from .gp_memory import densest_older
+from .gp_split import RELEVANCE_RATIO, fit_and_split
+from .novelty import InputEnvelope
+
+# refit early once the mean squared standardised error of the last taught ticks passes SURPRISED
+# (typical errors of two standard deviations), at most every SURPRISE_REFIT_GAP samples, and each
+# such refit doubles the wait for the next
+SURPRISED, SURPRISE_REFIT_GAP = 4.0, 8
+# and once an input's spread grows past SPREAD_GROWTH times what the last fit saw: the teaching now
+# spans a direction the fit hardly knew (an input that never varied starts to: the orange ball)
+SPREAD_GROWTH = 2.0
+# the smooth part's share of the prior variance under which the evidence calls a map linear: fits
+# of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
+LINEAR_ENOUGH = 1e-3
+# the largest noise sd a fit may find, as a share of `near` of the taught span: the teacher is assumed right,
+# so teaching that varies by more than that where the inputs hardly do is a map to learn (a switch, a sharp
+# turn), not noise to average away: left free, fits of a pendulum's swing-up called a third of the teaching
+# noise and the student stopped catching the pendulum
+NOISE_SHARE_OF_NEAR = 0.5
+DUPLICATE = 1e-3  # of an input's spread, of an output's taught span: a pair this near a remembered one adds nothing
+MIN_SPLIT_SAMPLES = 64  # remembered, before a leaf weighs a split (and 8 per input): fewer fit noisily
+
+
+
+_FITTER: ThreadPoolExecutor | None = None
+_SPLITTER: ThreadPoolExecutor | None = None
+
+
+def _fitter() -> ThreadPoolExecutor:
+    """One thread for every GP of the process that serves live: fits queue rather than crowd the cores."""
+    global _FITTER
+    if _FITTER is None:
+        _FITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-fit")
+    return _FITTER
+
+
+def _splitter() -> ThreadPoolExecutor:
+    """One more for the search for splits (gp_split: five fits where a refit is one), so that no refit waits
+    behind one: under load a correction's refit queued behind searches, and the corrected ball-seeking
+    student went on asking about the orange ball (21 % of its ticks, where it had been 0)."""
+    global _SPLITTER
+    if _SPLITTER is None:
+        _SPLITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-split")
+    return _SPLITTER
+
+
+class LocalGP(Learner):
+    def __init__(self, n_in: int, n_out: int, seed: int = 0, *, memory: int = 800, near: float = 0.04,
+                 fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024, noise_floor: float = 1e-5,
+                 relevance_prior_sd: float = 2.0, max_iterations: int = 60, novelty_scale: float = 0.25):
+        super().__init__(n_in, n_out, seed)
+        self.memory, self.near, self.fit_points, self.first_fit = memory, near, fit_points, first_fit
+        self.refit_every, self.noise_floor, self.max_iterations = refit_every, noise_floor, max_iterations
+        self.relevance_prior_sd, self.novelty_scale = relevance_prior_sd, novelty_scale
+        for name, least in (("memory", 8), ("fit_points", 2), ("first_fit", 1), ("refit_every", 1),
+                            ("max_iterations", 1)):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < least:
+                raise ValueError(f"hyper-parameter {name} must be an integer of at least {least}, got {value!r}")
+        check_range("near", near, 1e-6, 1.0)
+        check_range("noise_floor", noise_floor, 1e-12, 0.5)
+        check_positive("relevance_prior_sd", relevance_prior_sd)
+        check_positive("novelty_scale", novelty_scale, strictly=False)  # 0: off
+        self._m = 0
+        self._xs, self._ys = np.zeros((0, n_in)), np.zeros((0, n_out))
+        self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was learned
+        self._chol, self._beta = np.zeros((0, 0)), np.zeros((0, n_out))
+        self._y_count, self._y_mean, self._y_sum_sq = 0, np.zeros(n_out), np.zeros(n_out)
+        self._envelope = InputEnvelope(n_in)
+        self._next_fit = first_fit
+        # a tree with room sets may_split; its fits then weigh a split (gp_split), at each doubling of what
+        # the leaf learned (searched at every refit, the searches' load under a busy robot's other processes
+        # left a keyboard-taught ball seeker reaching the ball 4 times in 10, not 9), and leave one found in
+        # proposed_split
+        self.may_split, self.proposed_split, self._split_check = False, None, 0
+        self._factored = False  # chol and beta hold the memory's posterior
+        self._surprise_gap = SURPRISE_REFIT_GAP  # samples a surprise must wait since the last fit
+        self._background, self._pending = False, None  # serve_live: fits on another thread
+        self._searching = None  # serve_live: a search for a split under way on the splitter's thread
+        self._use(first_hyper(n_in, n_out), rebuild=False)  # also sets the surprise and spread baselines
+
+    @classmethod
+    def _unit_test_params(cls) -> dict:
+        return {"memory": 200, "fit_points": 96}
+
+    @property
+    def size(self) -> int:
+        """Samples remembered."""
+        return self._m
+
+    @property
+    def relevance(self) -> np.ndarray:
+        """1 / length scale per input, in the inputs' own units: near 0 for an input ignored."""
+        return self._inv_ell.copy()
+
+    # --- learning ---------------------------------------------------------------------------
+    def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+        self._collect()
+        self._envelope.learn(x[None, :])
+        self._count_target(y)
+        if not self._near_duplicate(x, y):
+            self._remember(x, y)
+        if self._y_count >= self._next_fit and self._pending is None:  # n_learned lags inside learn_many
+            self._next_fit += min(max(self._next_fit // 2, 1), self.refit_every)
+            if self._factored:
+                self._refit()
+        elif self._factored and self._y_count - self._last_fit >= SURPRISE_REFIT_GAP:
+            if np.any(self._input_sd() > SPREAD_GROWTH * self._fitted_sd):
+                self._refit()  # the teaching spans an input further than the fit saw
+            elif self._surprise > SURPRISED and self._y_count - self._last_fit >= self._surprise_gap:
+                # the teaching contradicts the fit; if refitting does not end that (a mismatch no fit can
+                # mend), the next try waits twice as long
+                self._surprise_gap = min(2 * self._surprise_gap, self.refit_every)
+                self._refit()
+
+    def _near_duplicate(self, x: np.ndarray, y: np.ndarray) -> bool:
+        """A remembered pair within DUPLICATE of each input's spread and each output's taught span (exactly,
+        along what never varied) adds nothing: epochs over one data set would tell the evidence there is no
+        noise, and a robot held still gives thousands (a pendulum held upright), which drove the
+        incremental factor's rounding up to answers of 1e155. Judged in the data's units, not the fit's: a
+        sample the fit of the moment finds redundant (an early fit sure of a wrong map) may be just what
+        shows it wrong (mirroring's seed 6 stopped learning at 0.17 rad)."""
+        m = self._m
+        near_x = np.all(np.abs(self._xs[:m] - x) <= DUPLICATE * self._input_sd(), axis=1)
+        return bool(np.any(near_x & np.all(np.abs(self._ys[:m] - y) <= DUPLICATE * self._taught.span, axis=1)))
+
+    def _remember(self, x: np.ndarray, y: np.ndarray) -> None:
+        if self._m == self.memory:
+            self._thin()
+        self._reserve(self._m + 1)
+        m = self._m
+        self._xs[m], self._ys[m], self._born[m] = x, y, self._y_count
+        if not self._factored:
+            self._m = m + 1
+            # while every target taught has been the same the posterior is that constant, exactly: the
+            # factor is built once something varies (an output no teacher moves costs nothing)
+            if np.any(self._taught.span > 0.0):
+                self._rebuild()
+                self._refit()
+            return
+        before = np.empty(self.n_out)
+        unit_var = gp_kernels.append(self._xs, self._chol, self._beta, m, kernel_ready(x),
+                                     kernel_ready(y - self._hyper.mu), self._inv_ell, self._hyper.centre,
+                                     self._smooth, self._linear, self._ratio, before)
+        self._m = m + 1
+        self._weigh_surprise(y - self._hyper.mu - before, unit_var)
+
+    def _weigh_surprise(self, error: np.ndarray, unit_var: float) -> None:
+        """Every taught tick tests what the learner would have said: a running mean of the squared
+        standardised error (over the least expected output), which a refit resets."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z2 = np.where(error != 0.0, error * error / (unit_var * self._amplitude2()), 0.0)
+        self._surprise += (min(float(z2.max()), 25.0) - self._surprise) / SURPRISE_REFIT_GAP
+
+    def _input_sd(self) -> np.ndarray:
+        """Each input's spread over everything learned (0 for an input that never varied)."""
+        sd = np.sqrt(self._envelope.sum_sq / max(self._envelope.count, 1))
+        return np.where(sd > 1e-12 * (1.0 + np.abs(self._envelope.mean)), sd, 0.0)
+
+    def _count_target(self, y: np.ndarray) -> None:
+        """Welford's running mean and variance of the taught outputs, and their range (learned here
+        too, not only after this call returns: a refit in this call uses it)."""
+        self._y_count += 1
+        delta = y - self._y_mean
+        self._y_mean += delta / self._y_count
+        self._y_sum_sq += delta * (y - self._y_mean)
+        self._taught.learn(y)
+
+    def _reserve(self, needed: int) -> None:
+        rows = self._xs.shape[0]
+        if needed <= rows:
+            return
+        grown = min(self.memory, max(needed, 2 * rows, 32))
+        for name in ("_xs", "_ys", "_born", "_beta"):
+            old = getattr(self, name)
+            new = np.zeros((grown,) + old.shape[1:], dtype=old.dtype)
+            new[:rows] = old
+            setattr(self, name, new)
+        chol = np.zeros((grown, grown))
+        chol[:rows, :rows] = self._chol
+        self._chol = chol
+
+    def _thin(self) -> None:
+        """Forget an eighth of the memory where it is densest: repeatedly, of the closest two samples
+        left, the older (gp_memory.densest_older)."""
+        dropped = densest_older(self._xs[:self._m] * self._inv_ell, self._born[:self._m], max(1, self.memory // 8))
+        keep = np.flatnonzero(~dropped)
+        for name in ("_xs", "_ys", "_born"):
+            array = getattr(self, name)
+            array[:len(keep)] = array[keep]
+        self._m = len(keep)
+        if self._factored:
+            self._rebuild()
+
+    def remembered_inputs(self) -> np.ndarray:
+        """A copy of the inputs remembered (m, n_in)."""
+        return self._xs[:self._m].copy()
+
+    def part(self, rows: np.ndarray, hyper: Hyper | None = None) -> LocalGP:
+        """A GP of the same parameters that remembers these rows of the memory, as if taught only them in the
+        order they were taught: its own spread, range and running statistics, this fit's hyper-parameters
+        (`hyper`, or this fit's) until a fit of its own, started at once (gp.GP splits a leaf into two of these)."""
+        order = rows[np.argsort(self._born[rows], kind="stable")]
+        child = self.clone()
+        child._background = self._background
+        k = len(order)
+        child._reserve(k)
+        child._xs[:k], child._ys[:k], child._born[:k] = self._xs[order], self._ys[order], np.arange(k)
+        child._m = child._n_learned = k
+        child._envelope.learn(child._xs[:k])
+        child._note_shown(child._xs[:k], child._ys[:k])
+        for y in child._ys[:k]:
+            child._count_target(y)
+        child._next_fit = k + max(k // 2, 1)
+        child.may_split = self.may_split
+        if np.any(child._taught.span > 0.0):
+            child._use(hyper or self._hyper)
+            child._refit()  # its own fit, and whether it too is two regions, even if no teaching follows
+        return child
+
+    # --- hyper-parameters ---------------------------------------------------------------------
+    def serve_live(self) -> None:
+        """Fit hyper-parameters on another thread from now on (a fit takes up to seconds; the loop must
+        not wait), applying each at the next call once done. Offline use stays synchronous and
+        deterministic."""
+        self._background = True
+
+    def _refit(self) -> None:
+        if self._pending is not None:
+            return  # one fit at a time; whatever asked for this one will ask again
+        if self._m <= self.n_in:
+            return  # fewer samples than inputs cannot tell which inputs matter: the prior's scales stand
+        # the teacher is assumed right: what it shows inconsistently beyond half of `near` is to be learned
+        ceiling = NOISE_SHARE_OF_NEAR * self.near * self._taught.span
+        consider = self.may_split and self._m >= max(MIN_SPLIT_SAMPLES, 8 * self.n_in) and \
+            self._y_count >= self._split_check
+        if consider:  # again once the leaf has learned twice as much: a search is five fits
+            self._split_check = 2 * self._y_count
+        job = partial(fit_and_split, self._xs[:self._m].copy(), self._ys[:self._m].copy(), self._hyper,
+                      self.fit_points, self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling)
+        seen = (self._input_sd(), self._y_count)  # what the fit sees, for the refit triggers
+        if not self._background:
+            self._adopt(job(consider), seen)
+            return
+        self._pending = (_fitter().submit(job, False), seen)
+        if consider and self._searching is None:
+            self._searching = _splitter().submit(job, True)
+
+    def _collect(self) -> None:
+        """Apply a fit done on the fitter's thread (a failed one leaves the last fit in place). If
+        teaching went on while it ran, fit again: when teaching stops, the last fit has seen it all."""
+        if self._searching is not None and self._searching.done():
+            done, self._searching = self._searching, None
+            if done.exception() is None and done.result()[1] is not None:
+                self.proposed_split = done.result()[1]
+        if self._pending is not None and self._pending[0].done():
+            (done, seen), self._pending = self._pending, None
+            if done.exception() is None:
+                self._adopt(done.result(), seen)
+            if self._y_count > seen[1]:
+                self._refit()
+
+    def _adopt(self, found: tuple, seen: tuple) -> None:
+        """A fit and, where it was considered, a split its evidence favours (gp_split): the tree applies it."""
+        hyper, split = found
+        both = hyper.varied & self._hyper.varied
+        flipped = bool(np.any(np.abs(hyper.log_ell - self._hyper.log_ell)[both] >= RELEVANCE_RATIO))
+        self._use(hyper, seen)
+        if split is not None:
+            self.proposed_split = split
+        elif flipped and self.may_split:
+            # what matters changed at once (the pendulum's sine from a length scale of 0.4 to 41 as the swing's
+            # samples came to outnumber the catch's): likely two regimes; weigh a split at the next sample
+            self._split_check, self._next_fit = 0, self._y_count + 1
+
+    def _use(self, hyper: Hyper, seen: tuple | None = None, rebuild: bool = True) -> None:
+        """Adopt a fit: the kernel's working quantities, the factor, and the refit triggers' baselines:
+        the spread and count the fit saw (learning that went on while it ran is yet to be fitted)."""
+        self._hyper = hyper
+        self._inv_ell = np.exp(-hyper.log_ell)
+        self._linear = linear_share(hyper.logit_linear)
+        self._smooth = 1.0 - self._linear
+        self._ratio = max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), self.noise_floor)
+        self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
+        self._surprise = 0.0
+        if rebuild:
+            self._rebuild()
+
+    def _rebuild(self) -> None:
+        """The Cholesky factor and beta over the memory, from scratch."""
+        m = self._m
+        gram = self._kernel(self._xs[:m], self._xs[:m])
+        while True:
+            try:
+                chol = np.linalg.cholesky(gram + self._ratio * np.eye(m))
+                break
+            except np.linalg.LinAlgError:  # rounding on near-duplicates: more noise, never a crash
+                self._ratio *= 10.0
+        self._chol[:m, :m] = chol
+        self._beta[:m] = solve_triangular(chol, self._ys[:m] - self._hyper.mu, lower=True)
+        self._factored = True
+
+    def _kernel(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        za, zb = (a - self._hyper.centre) * self._inv_ell, (b - self._hyper.centre) * self._inv_ell
+        dot = za @ zb.T
+        d2 = (za * za).sum(1)[:, None] + (zb * zb).sum(1)[None, :] - 2.0 * dot
+        return self._smooth * np.exp(-0.5 * np.maximum(d2, 0.0)) + self._linear * dot
+
+    # --- prediction -------------------------------------------------------------------------
+    def predict_one(self, x):
+        self._collect()
+        if not self._factored:
+            return super().predict_one(x)
+        x = kernel_ready(x)
+        if x.shape != (self.n_in,) or not np.isfinite(x).all():
+            return super().predict_one(x)  # raises the contract's error
+        offset = np.empty(self.n_out)
+        unit_var = gp_kernels.predict_one(self._xs, self._chol, self._beta, self._m, x, self._inv_ell,
+                                          self._hyper.centre, self._smooth, self._linear, self._ratio, offset)
+        many = self._answer(x[None, :], offset[None, :], np.array([unit_var]))
+        return self._sane_one(many.y[0], float(many.confidence[0]), many.interval[0], x)
+
+    def _predict_many(self, xs: np.ndarray) -> Predictions:
+        self._collect()
+        n, m = xs.shape[0], self._m
+        if m == 0:
+            return Predictions(np.zeros((n, self.n_out)), np.zeros(n), np.full((n, self.n_out), np.inf))
+        if not self._factored:  # the one value taught so far
+            return self._answer(xs, np.tile(self._taught.low - self._hyper.mu, (n, 1)), np.zeros(n))
+        v = solve_triangular(self._chol[:m, :m], self._kernel(xs, self._xs[:m]).T, lower=True)
+        prior = self._smooth + self._linear * (((xs - self._hyper.centre) * self._inv_ell) ** 2).sum(1)
+        unit_var = np.maximum(prior + self._ratio - (v * v).sum(0), self._ratio)
+        return self._answer(xs, v.T @ self._beta[:m], unit_var)
+
+    def _amplitude2(self) -> np.ndarray:
+        """Per output, the prior variance of the map. Far from what it was taught the answer may be
+        anywhere in the taught range: at least half the span squared, whatever spread the fit saw
+        (teaching shows only part of a map)."""
+        fitted = math.exp(2.0 * self._hyper.log_sf) * self._y_sum_sq / max(self._y_count, 1)
+        return np.maximum(fitted, (self._taught.span / 2) ** 2)
+
+    def _answer(self, xs: np.ndarray, offset: np.ndarray, unit_var: np.ndarray) -> Predictions:
+        span, amplitude2 = self._taught.span, self._amplitude2()[None, :]
+        sd = np.sqrt(unit_var[:, None] * amplitude2)  # of the teacher's next answer: the interval
+        map_sd = np.sqrt(np.maximum(unit_var - self._ratio, 0.0)[:, None] * amplitude2)  # of the map: confidence
+        with np.errstate(divide="ignore", invalid="ignore"):
+            near = self.near * span / math.sqrt(2.0)
+            per_output = np.where(map_sd > 0.0, erf(near / map_sd), 1.0)
+            # beyond chance: an answer anywhere in the prior is within `near` with some probability (0.31 at
+            # near 0.2), which is no support at all; confidence counts only what the teaching added
+            by_chance = np.where(amplitude2 > 0.0, erf(near / np.sqrt(amplitude2)), 0.0)
+            per_output = np.clip((per_output - by_chance) / (1.0 - by_chance), 0.0, 1.0)
+        # an answer is held within the taught range plus a margin, unless the evidence says the map is
+        # linear (the smooth part's share of the variance under LINEAR_ENOUGH): a linear map extends past
+        # the part of it that was shown, and there the posterior mean is the likelier answer than any
+        # held one; a curved one's trend is not followed away from what was taught
+        y = self._hyper.mu + offset
+        if self._smooth > LINEAR_ENOUGH:
+            y = self._taught.bound(y)
+        ramp = min(1.0, self._n_learned / (2.0 * self.n_in))
+        # the posterior's variance sees novelty along the inputs it was fitted on; only along an input that
+        # never varied (its relevance unknown: the orange ball before any lesson with it) the envelope must
+        unknown = ~self._hyper.varied if self._hyper.varied.any() else None
+        confidence = per_output.min(1) * self._envelope.beyond_inputs(xs, self.novelty_scale, unknown) * ramp
+        return Predictions(y, confidence, sd)
+
+    def _bound(self, y: np.ndarray) -> np.ndarray:
+        return y  # _answer has held what it does not trust
+
+    def _fades(self) -> bool:
+        return self._smooth > LINEAR_ENOUGH  # a linear map goes on past what was shown (mirroring)
+
+    def fade_widths(self, span: np.ndarray) -> np.ndarray:
+        """Per input, the width over which answers fade beyond what was shown (base.FADE): FADE of the
+        given span, or the length scale where longer (an input the map ignores fades little), none where
+        the fit never saw the input vary."""
+        return np.where(self._hyper.varied, np.maximum(1.0 / self._inv_ell, FADE * span), np.inf)
+
+    def _fade(self, xs: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return y  # a leaf's tree fades its answers, beyond what the whole was shown (gp.GP)
+
+    # --- snapshots --------------------------------------------------------------------------
+    def __getstate__(self) -> dict:
+        # unused rows stay out of snapshots, and so does a fit under way on the fitter's thread
+        state = dict(self.__dict__, _pending=None, _searching=None, _background=False, proposed_split=None)
+        m = self._m
+        for name in ("_xs", "_ys", "_born", "_beta"):
+            state[name] = getattr(self, name)[:m].copy()
+        state["_chol"] = self._chol[:m, :m].copy()
+        return state
+
