@@ -3,8 +3,8 @@ take the whole bus (the recorder, replay, dashboards). Queries and liveliness to
 from __future__ import annotations
 
 from .codec import BOOL, BYTES, FLOAT, INT, MAP, OPT_VECTOR, STR, VECTOR, VECTORS, VERSION
-from .messages import (Applied, ArenaReset, Clock, Command, Frame, Handle, Input, Proposal, RecordSwitch,
-                       RobotState, SelectLearner, Status, TeachSwitch, TrainingPair)
+from .messages import (Applied, ArenaReset, Clock, Command, Episode, Frame, Handle, Input, Proposal, RecordSwitch,
+                       Reward, RobotState, SelectLearner, Status, TeachSwitch, TrainingPair)
 
 LOSSLESS, LATEST_ONLY = "lossless", "latest-only"
 
@@ -13,6 +13,7 @@ INSTANCE_PAYLOADS = {
     "input": (Input, LATEST_ONLY), "command": (Command, LATEST_ONLY), "applied": (Applied, LATEST_ONLY),
     "train": (TrainingPair, LOSSLESS), "teach": (TeachSwitch, LOSSLESS),
     "record": (RecordSwitch, LOSSLESS),
+    "reward": (Reward, LATEST_ONLY), "episode": (Episode, LOSSLESS),
     "arbitrator/select": (SelectLearner, LOSSLESS),
     "proposal/*/*": (Proposal, LATEST_ONLY), "status/*/*": (Status, LATEST_ONLY),
 }

@@ -51,6 +51,8 @@ class InstanceKeys(_Keys):
         self.record = f"{p}/record"
         self.select_learner = f"{p}/arbitrator/select"
         self.spaces = f"{p}/spaces"
+        self.reward = f"{p}/reward"
+        self.episode = f"{p}/episode"
         self.proposals = f"{p}/proposal/**"
         self.alive_all = f"{p}/alive/**"
 

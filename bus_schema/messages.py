@@ -270,3 +270,50 @@ class RobotState:
     balls: dict
     ear_mode: str
     ear_rgba: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class Reward:
+    """What one step of a task with a reward (a Gymnasium environment) earned, for judges and the page,
+    never a DL input: the tick whose command was applied, the episode (from 0), the step within it (from
+    1), the step's reward, the episode's return so far, and whether the episode ended with this step."""
+    FIELDS = (("tick", INT), ("episode", INT), ("step", INT), ("reward", FLOAT), ("episode_return", FLOAT),
+              ("done", BOOL))
+    tick: int
+    episode: int
+    step: int
+    reward: float
+    episode_return: float
+    done: bool
+
+    def check(self, key: str) -> None:
+        if self.episode < 0 or self.step < 1 or self.tick < 1:
+            raise SchemaError(key, "step", f"episode {self.episode}, step {self.step}, tick {self.tick}: episodes "
+                                           "count from 0, steps and ticks from 1")
+
+
+@dataclass(frozen=True, slots=True)
+class Episode:
+    """An episode that ended: its number, steps, return, whether the task ended it (terminated) or a time
+    limit did (truncated), and who drove it: steps per command mode (teacher, student, unsure)."""
+    FIELDS = (("episode", INT), ("steps", INT), ("episode_return", FLOAT), ("terminated", BOOL),
+              ("truncated", BOOL), ("modes", MAP), ("stamp", FLOAT))
+    episode: int
+    steps: int
+    episode_return: float
+    terminated: bool
+    truncated: bool
+    modes: dict
+    stamp: float
+
+    def check(self, key: str) -> None:
+        if self.episode < 0 or self.steps < 1:
+            raise SchemaError(key, "steps", f"episode {self.episode} of {self.steps} steps: episodes count from 0 "
+                                            "and have a step at least")
+        for mode, count in self.modes.items():
+            if mode not in MODES or isinstance(count, bool) or not isinstance(count, int) or count < 0:
+                raise SchemaError(key, f"modes.{mode}", f"expected a count of steps for one of "
+                                                        f"{', '.join(MODES)}")
+        if sum(self.modes.values()) > self.steps:
+            raise SchemaError(key, "modes", f"{sum(self.modes.values())} steps counted by mode in an episode of "
+                                            f"{self.steps}")

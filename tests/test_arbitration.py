@@ -109,3 +109,16 @@ def test_partial_teachers_merge_with_the_student():
     assert list(d.y) == [7, 5, 3] and list(d.mask) == [1, 1, 0]
     whole = TeacherFirst().decide([("teacher/t", P([1, 1, 1], 1.0))], student, None, np.zeros(3))
     assert whole.mask is None
+
+
+def test_a_teachers_choice_trains_as_one_hot_where_the_outputs_are_a_choice():
+    from services.arbitration.algorithm2 import decide
+    from bus_schema.spaces import Box
+    box = Box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    teacher = [("teacher/person", P([0.2, 0.7, 0.4], 1.0))]
+    d, _ = decide(TeacherFirst(), teacher, None, None, np.zeros(3), box, choice=True)
+    assert d.train and d.y.tolist() == [0.0, 1.0, 0.0]
+    d, _ = decide(TeacherFirst(), teacher, None, None, np.zeros(3), box)  # not a choice: as given
+    assert d.y.tolist() == [0.2, 0.7, 0.4]
+    d, _ = decide(TeacherFirst(), [], ("learner/l", P([0.2, 0.7, 0.4], 0.9)), None, np.zeros(3), box, choice=True)
+    assert d.y.tolist() == [0.2, 0.7, 0.4]  # the student's answer is sent as it is: the platform takes the largest

@@ -80,3 +80,20 @@ def test_mask_shape_and_values():
         decode(Proposal, encode(Proposal(1, "teacher/t", np.zeros(3), 1.0, np.array([0.0, 0.5, 0.0]))), "k", {"y": 3})
     with pytest.raises(SchemaError, match="expected 3 values, got 2"):
         decode(Proposal, encode(Proposal(1, "teacher/t", np.zeros(3), 1.0, np.zeros(2))), "k", {"y": 3})
+
+
+def test_reward_and_episode_round_trip_and_refuse_what_cannot_be():
+    from bus_schema import Episode, Reward
+    reward = decode(Reward, encode(Reward(5, 0, 3, -1.5, -4.0, False)), "dl/a/reward")
+    assert (reward.episode, reward.step, reward.episode_return) == (0, 3, -4.0)
+    episode = decode(Episode, encode(Episode(2, 200, -130.5, False, True, {"teacher": 150, "student": 50}, 1.0)),
+                     "dl/a/episode")
+    assert episode.modes == {"teacher": 150, "student": 50} and episode.truncated
+    bad = [(Reward(5, -1, 3, 0.0, 0.0, False), "episodes count from 0"),
+           (Reward(0, 0, 3, 0.0, 0.0, False), "ticks from 1"),
+           (Episode(1, 10, 0.0, True, False, {"pilot": 3}, 1.0), "modes.pilot"),
+           (Episode(1, 10, 0.0, True, False, {"teacher": 8, "unsure": 8}, 1.0), "16 steps counted by mode"),
+           (Episode(1, 10, 0.0, True, False, {"student": -1}, 1.0), "modes.student")]
+    for message, words in bad:
+        with pytest.raises(SchemaError, match=words):
+            decode(type(message), encode(message), "dl/a/x")

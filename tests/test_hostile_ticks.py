@@ -37,6 +37,7 @@ def platform_loop() -> box.PlatformLoop:
     loop.tick, loop.latest, loop.latest_at, loop.applied_tick = 0, None, -1.0, -1
     loop.answered, loop.latencies, loop.recent_latency = set(), None, collections.deque(maxlen=10)
     loop.applied_pub = types.SimpleNamespace(put=lambda payload: None)
+    loop.episodes = None  # a robot without a task's reward
     return loop
 
 

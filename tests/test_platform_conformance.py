@@ -38,6 +38,10 @@ VARIANTS["aibo"] = ("aibo", {"camera": False})
 VARIANTS["aibo-move"] = ("aibo", {"camera": False, "command": "move"})
 VARIANTS["aibo-legs"] = ("aibo", {"camera": False, "command": "legs", "inputs": "phase"})
 VARIANTS["recorded"] = ("recorded", {"run": a_recorded_run()})
+# the gym platform on every environment its teachers are written for (Box and Discrete actions)
+VARIANTS["gym"] = ("gym", {"env": "Pendulum-v1"})
+for env in ("CartPole-v1", "MountainCarContinuous-v0", "Acrobot-v1"):
+    VARIANTS[f"gym-{env.split('-v')[0].lower()}"] = ("gym", {"env": env})
 
 
 CASES = [(variant, check) for variant in sorted(VARIANTS) for check in ALL_CHECKS]

@@ -15,10 +15,17 @@ import numpy as np
 from services.arbitration.strategies import Decision
 
 
-def decide(strategy, teachers, learner, default, fallback: np.ndarray, output_space=None) -> tuple[Decision, bool]:
+def decide(strategy, teachers, learner, default, fallback: np.ndarray, output_space=None,
+           choice: bool = False) -> tuple[Decision, bool]:
     """The strategy's decision with its output clipped to `output_space` (a Box, or None), and whether
-    clipping changed it."""
+    clipping changed it. Where the outputs are a choice (one per action, the largest taken: the spaces'
+    extra "choice" is "largest"), a teacher's output becomes the one-hot of the action it chose, as the
+    platform applies it, so the student learns the choice, not how a person's stick happened to lean."""
     decision = strategy.decide(teachers, learner, default, fallback)
+    if choice and decision.mode == "teacher" and decision.mask is None:
+        chosen = np.zeros(len(decision.y))
+        chosen[int(np.argmax(decision.y))] = 1.0
+        decision = dataclasses.replace(decision, y=chosen)
     if output_space is None:
         return decision, False
     y = output_space.clip(decision.y)

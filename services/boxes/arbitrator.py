@@ -36,6 +36,7 @@ class Arbitrator:
         self.session, self.keys, self.log = session, keys, log
         self.dims = {"x": spaces.input.dims, "y": spaces.output.dims}
         self.output_space = spaces.output  # every command, and so every pair learned, is clipped to it
+        self.choice = spaces.extra.get("choice") == "largest"  # one output per action: a teacher's is one-hot
         self.strategy, self.train_on = strategy, train_on
         self.table = TickTable(deadline_s)
         self.members = Membership(keys)
@@ -163,7 +164,7 @@ class Arbitrator:
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
             defaults = self.speaking(entry, "default", "default")
             d, clipped = decide(self.strategy, teachers, learner_p, defaults[0] if defaults else None,
-                                self.last_command, self.output_space)
+                                self.last_command, self.output_space, self.choice)
             self.counts["clipped_commands"] += clipped
             self.last_command = d.y
             self.command_pub.put(encode(Command(entry.tick, entry.stamp, d.y, d.mode, d.source, d.confidence)))

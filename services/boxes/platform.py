@@ -20,6 +20,7 @@ from bus_schema import Applied, Command, InstanceKeys, Input, SpacesMessage, enc
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.lifecycle import StopFlag, setup_logging
+from services.boxes.episodes import EpisodeReporter
 from services.bus.publishers import StatusPublisher, sensor_publisher
 from services.params import parse_params
 from services.platforms import PLATFORMS, make_platform
@@ -52,6 +53,8 @@ class PlatformLoop:
         self.last_unanswered = collections.deque(maxlen=1000)  # and the latest 1000: no late miss hides
         self.n_unanswered = 0
         self.mode = ""
+        # a platform with a task's reward (gym) reports each step's outcome: the reward goes on its own keys
+        self.episodes = EpisodeReporter(session, keys) if callable(getattr(platform, "outcome", None)) else None
 
     def next_tick(self) -> int:
         """A new tick: the oldest one leaves the answer window."""
@@ -112,11 +115,17 @@ class PlatformLoop:
             self.applied_tick = self.latest.tick
             self.applied_pub.put(encode(Applied(self.latest.tick, applied, False)))
             self.counts["applied"] += 1
+            self._stepped()
         elif self.latest is not None and time.monotonic() - self.latest_at <= watchdog:
             self.platform.step(self.latest.y, dt)  # late answer, watchdog not fired: keep the last command
+            self._stepped()
         else:
             self.platform.hold(dt)  # watchdog: nothing fresh, hold still
             self.counts["held"] += 1
+
+    def _stepped(self) -> None:
+        if self.episodes is not None:
+            self.episodes.stepped(self.latest.tick, self.latest.mode, self.platform.outcome())
 
     def summary(self) -> dict:
         window = range(max(1, self.tick - ANSWER_WINDOW + 1), self.tick + 1)
@@ -133,7 +142,10 @@ class PlatformLoop:
         lat = np.array([ms for at, ms in self.recent_latency if at >= since] or [0.0]) * 1e3
         # lost: ticks that left the answer window unanswered
         counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick, lost_ticks=self.n_unanswered)
-        state = {"mode": self.mode, "latency_p50_ms": round(float(np.percentile(lat, 50)), 3),
+        if hasattr(self.platform, "clipped_inputs"):  # observations beyond the declared bounds (gym)
+            counters["clipped_inputs"] = self.platform.clipped_inputs
+        state = {"mode": self.mode, **(self.episodes.state() if self.episodes else {}),
+                 "latency_p50_ms": round(float(np.percentile(lat, 50)), 3),
                  "latency_p99_ms": round(float(np.percentile(lat, 99)), 3)}
         return counters, state
 

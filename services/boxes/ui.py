@@ -41,7 +41,7 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
         out = spaces.output
         hello = {"version": 1, "instance": instance, "robot": robot, "person": person,
                  "outputs": {"names": list(out.names), "units": list(out.units), "low": list(out.low),
-                             "high": list(out.high)},
+                             "high": list(out.high), "choice": spaces.extra.get("choice") == "largest"},
                  "inputs": {"names": list(spaces.input.names)}, "frame_header_bytes": FRAME_HEADER.size,
                  "teleop_refresh_ms": round(TELEOP_REFRESH_S * 1000)}
         server = UiServer(None, hello, host, port, token, log, tls)

@@ -16,7 +16,7 @@ from services.arbitration.strategies import Decision, TeacherFirst
 
 
 def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.ndarray | None = None,
-         index: int = 0, output_space=None, default=None) -> tuple[Decision, np.ndarray, float]:
+         index: int = 0, output_space=None, default=None, choice: bool = False) -> tuple[Decision, np.ndarray, float]:
     """Algorithm 2, steps 3-6. `teachers`: (name, teacher) pairs switched on now; `default`: a
     (name, controller) pair, Figure 1's default controller. Returns the decision and the student's
     own prediction (y_hat, confidence) before it learned this tick."""
@@ -35,7 +35,7 @@ def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.nda
         name, controller = default
         y, confidence = controller(x)
         default = (name, Proposal(index, name, np.asarray(y, dtype=np.float64), float(confidence)))
-    decision, _ = decide(strategy, proposals, student, default, fallback, output_space)
+    decision, _ = decide(strategy, proposals, student, default, fallback, output_space, choice)
     if trains(decision):
         learn_pair(learner, x, decision.y, decision.mask)
     return decision, predicted.y, float(predicted.confidence)

@@ -29,6 +29,16 @@ def _random_commands(box: Box, count: int, rng: np.random.Generator, spread: flo
     return centre + spread * half * rng.uniform(-1.0, 1.0, size=(count, box.dims))
 
 
+def _as_applied(spaces: Spaces, clipped: np.ndarray) -> np.ndarray:
+    """What a platform applies of a clipped command: itself, or where the outputs are a choice
+    (spaces.extra["choice"] == "largest": one output per action) the one-hot of the largest."""
+    if spaces.extra.get("choice") != "largest":
+        return clipped
+    chosen = np.zeros_like(clipped)
+    chosen[int(np.argmax(clipped))] = 1.0
+    return chosen
+
+
 def _assert_input(platform, x, what: str) -> None:
     box = platform.spaces.input
     assert isinstance(x, np.ndarray), f"{what} returned {type(x).__name__}; return a numpy array"
@@ -77,7 +87,7 @@ def check_step_clips_command(platform_factory: Callable) -> None:
                 assert isinstance(applied, np.ndarray) and applied.shape == (box.dims,), (
                     f"step() returned {type(applied).__name__} {getattr(applied, 'shape', '')}; "
                     f"return the applied command, shape ({box.dims},)")
-                assert np.allclose(applied, box.clip(command)), (
+                assert np.allclose(applied, _as_applied(platform.spaces, box.clip(command))), (
                     f"step() reported {np.round(applied, 4).tolist()} for command {np.round(command, 4).tolist()}; "
                     "report the command clipped to spaces.output, as applied")
 

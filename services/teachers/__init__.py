@@ -16,6 +16,11 @@ TEACHERS: dict[str, str] = {
     "random-map": "services.teachers.random_map:RandomMapTeacher",  # a smooth map nobody designed, from a seed
     "trot": "services.teachers.trot:TrotTeacher",  # the walk level: movement and gait phase -> 12 leg targets
     "wander": "services.teachers.wander:WanderTeacher",  # a handler asking for random outputs, held a while
+    # Gymnasium's classic control tasks on the gym platform, from their physics
+    "pendulum": "services.teachers.classic_control:PendulumTeacher",
+    "cartpole": "services.teachers.classic_control:CartPoleTeacher",
+    "mountain-car": "services.teachers.classic_control:MountainCarTeacher",
+    "acrobot": "services.teachers.classic_control:AcrobotTeacher",
 }
 
 

@@ -20,8 +20,8 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import (ArenaReset, Command, Frame, InstanceKeys, Input, Proposal, RecordSwitch, RobotKeys, Spaces,
-                        Status, TeachSwitch, encode, is_name)
+from bus_schema import (ArenaReset, Command, Episode, Frame, InstanceKeys, Input, Proposal, RecordSwitch, Reward,
+                        RobotKeys, Spaces, Status, TeachSwitch, encode, is_name)
 from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.publishers import lossless_publisher
@@ -32,6 +32,7 @@ VIEW_PERIOD_S = 0.1  # the page's view of the system, ten times a second
 SERIES_HZ = 20  # points of the confidence / error plot per second at most
 FRAME_HEADER = struct.Struct("<qd")  # tick, stamp: before each JPEG sent to the page
 MAX_SERVICES = 256  # a bus flooded with made-up tokens does not grow the page without bound
+EPISODES_SHOWN = 10  # a task's last episodes on the page (their return and who drove them)
 _RATE = re.compile(r"^[a-z0-9_]{1,40}$")  # a counter's name, as the page shows it
 
 
@@ -46,6 +47,7 @@ class Bridge:
         self.arena_pub = lossless_publisher(session, self.robot.arena)
         self.record_pub = lossless_publisher(session, self.keys.record)
         self.latest: dict = {}  # the newest command, as the page shows it
+        self.task: dict = {}  # a task's reward (gym): the episode under way and the last ones ended
         self.learner_y: collections.OrderedDict[int, np.ndarray] = collections.OrderedDict()
         self.series: list = []  # new plot points since the last view
         self.services: dict[str, dict] = {}  # "instance/role/name" -> alive, rates, state
@@ -66,6 +68,8 @@ class Bridge:
                       s.declare_subscriber(self.keys.input, cb("input")),
                       s.declare_subscriber(EVERY_STATUS, cb("status")),
                       s.declare_subscriber(self.robot.camera, cb("frame")),
+                      s.declare_subscriber(self.keys.reward, cb("reward")),
+                      s.declare_subscriber(self.keys.episode, cb("episode")),
                       s.liveliness().declare_subscriber(EVERY_ALIVE, cb("alive"), history=True)]
 
     def request(self, op: str, fields: dict, reply) -> None:
@@ -74,7 +78,8 @@ class Bridge:
 
     def run(self, stop: threading.Event) -> None:
         handlers = {"command": self.on_command, "learner": self.on_learner, "input": self.on_input,
-                    "status": self.on_status, "frame": self.on_frame, "alive": self.on_alive}
+                    "status": self.on_status, "frame": self.on_frame, "alive": self.on_alive,
+                    "reward": self.on_reward, "episode": self.on_episode}
         try:
             while not stop.is_set():
                 for tag, key, raw, kind in self.inbox.drain(0.02):
@@ -121,6 +126,18 @@ class Bridge:
         msg = decode_or_reject(Input, raw, key, self.rejects, {"x": self.spaces.input.dims})
         if msg is not None:
             self.teleop.on_tick(msg.tick)
+
+    def on_reward(self, key, raw, _):
+        msg = decode_or_reject(Reward, raw, key, self.rejects)
+        if msg is not None:
+            self.task.update(episode=msg.episode, step=msg.step, episode_return=round(msg.episode_return, 3))
+
+    def on_episode(self, key, raw, _):
+        msg = decode_or_reject(Episode, raw, key, self.rejects)
+        if msg is not None:
+            ended = {"episode": msg.episode, "steps": msg.steps, "episode_return": round(msg.episode_return, 3),
+                     "terminated": msg.terminated, "modes": msg.modes}
+            self.task["ended"] = (self.task.get("ended", []) + [ended])[-EPISODES_SHOWN:]
 
     def on_status(self, key, raw, _):
         msg = decode_or_reject(Status, raw, key, self.rejects)
@@ -209,6 +226,6 @@ class Bridge:
                      **({"recording": e["recording"]} if "recording" in e else {})}
                     for key, e in sorted(self.services.items()) if not key.split("/")[1].endswith("-token")]
         self.emit("view", {"type": "view", "command": self.latest, "series": self.series, "teachers": teachers,
-                           "teaching": teaching, "services": services,
+                           "teaching": teaching, "services": services, "task": self.task,
                            "person": self.teleop.view(), "rejected": self.rejects.total})
         self.series = []

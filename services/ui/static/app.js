@@ -100,8 +100,24 @@ function onView(v) {
   drawPlot();
   drawTeachers(v.teachers, v.teaching);
   drawServices(v.services);
+  drawTask(v.task || {});
   const p = v.person;
   $("person").textContent = p.active ? `you drive: ${describe(p.y, p.mask)}` : "you are not driving";
+}
+
+// a task's reward (a Gymnasium environment): the episode under way, and who drove the last ones
+function drawTask(task) {
+  if (task.episode === undefined) return;
+  $("task").hidden = false;
+  $("task-episode").textContent = task.episode;
+  $("task-step").textContent = task.step;
+  $("task-return").textContent = task.episode_return.toFixed(1);
+  const rows = (task.ended || []).slice().reverse().map((e) => {
+    const total = Object.values(e.modes).reduce((a, b) => a + b, 0) || 1;
+    const who = Object.entries(e.modes).map(([m, n]) => `${m} ${Math.round(100 * n / total)} %`).join(", ");
+    return `<tr><td>${e.episode}</td><td>${e.steps}</td><td>${e.episode_return.toFixed(1)}</td><td>${esc(who)}</td></tr>`;
+  });
+  $("episodes").querySelector("tbody").innerHTML = rows.join("");
 }
 
 function describe(y, mask) {
@@ -167,14 +183,22 @@ function drawTeachers(teachers, teaching) {
 const KEYS = { ArrowUp: "up", ArrowDown: "down", ArrowLeft: "left", ArrowRight: "right" };
 
 function axes() {
-  // output 0 (forward): up +1, down -1; output 1 (turn, left positive): left +1, right -1; others unsaid
+  // output 0 (forward): up +1, down -1; output 1 (turn, left positive): left +1, right -1; others unsaid.
+  // Outputs that are a choice (one per action, the largest taken: a Gymnasium Discrete): left the first
+  // action, right the last, up or down the middle one; the chosen at its high end, the rest at their low.
   const n = hello ? hello.outputs.names.length : 2;
+  if (hello && hello.outputs.choice) return chosen(n);
   const y = new Array(n).fill(null);
   const pick = (plus, minus) => (held.has(plus) && !held.has(minus) ? 1 : held.has(minus) && !held.has(plus) ? -1 : null);
   y[0] = pick("up", "down");
   if (n > 1) y[1] = pick("left", "right");
   if (padAxes) padAxes.forEach((v, i) => { if (i < n && y[i] === null && v !== null) y[i] = v; });
   return y;
+}
+
+function chosen(n) {
+  const action = held.has("left") ? 0 : held.has("right") ? n - 1 : held.has("up") || held.has("down") ? (n - 1) >> 1 : null;
+  return action === null ? new Array(n).fill(null) : Array.from({ length: n }, (_, i) => (i === action ? 1 : -1));
 }
 
 let lastSaid = "";

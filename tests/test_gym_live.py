@@ -1,0 +1,84 @@
+"""Gymnasium tasks taught over the bus: the gym platform, a teacher, the wired learner (deploy/gym.toml)
+and the arbitrator as real processes; a person switches the teacher with `dogged teach`; the student is
+judged alone on the episodes the platform reports on dl/main/episode. Scores: 0 a random policy's mean
+return, 1 the teacher's (services.experiments.gym.baseline)."""
+import numpy as np
+import pytest
+
+from bus_schema import Episode, decode
+from services.experiments import gym
+from services.experiments.wiring import wired_learner
+from tests.harness import Probe, dogged, dogged_ok, stop
+
+ARBITRATOR = "arbitrator/arbitrator"
+# lockstep: each tick as soon as the last is answered (a few milliseconds), so no command is late. Paced at
+# 200 Hz the loop's answer often came after the next tick, the platform applied each command a step late,
+# and the student (trained offline on the same pairs: 0.99) scored 0.49, never catching the pendulum
+RATE_HZ = 0
+# episodes of the student alone not judged: the first may have begun while the teacher was switching off,
+# and in lockstep the teaching outran the learner's fits (on their own thread, as served live), which a
+# person teaching at 50 Hz never does: they catch up while the student drives
+SETTLE = 2
+
+
+def start(router, tmp_path, env: str, teacher: str) -> list:
+    learner, params = wired_learner("gym")
+    learner_args = [arg for name, value in params.items() for arg in ("--param", f"{name}={value}")]
+    connect = ["--connect", router]
+    return [dogged("run", "platform", "--platform", "gym", "--param", f"env={env}", "--rate", str(RATE_HZ), *connect,
+                   log=tmp_path / "platform.log"),
+            dogged("run", "demonstrator", "--teacher", teacher, *connect, log=tmp_path / "teacher.log"),
+            dogged("run", "learner", "--learner", learner, *learner_args, *connect, log=tmp_path / "learner.log"),
+            dogged("run", "arbitrator", *connect, log=tmp_path / "arbitrator.log")]
+
+
+def teach(probe: Probe, router: str, pairs: int) -> None:
+    """The person switches the teacher on until `pairs` more training pairs went out, then off."""
+    target = probe.counter(ARBITRATOR, "train_pairs") + pairs
+    assert dogged_ok("teach", "on", endpoint=router).returncode == 0
+    probe.wait_for(lambda: probe.counter(ARBITRATOR, "train_pairs") >= target, 180, f"{pairs} pairs taught")
+    assert dogged_ok("teach", "off", endpoint=router).returncode == 0
+
+
+def student_alone(probe: Probe, episodes: list, count: int, base: gym.Baseline) -> float:
+    """The score of the next `count` episodes the student drove from start to end, alone."""
+    start_at = len(episodes)
+
+    def alone():
+        decoded = [decode(Episode, raw, key) for key, raw, _ in episodes[start_at:]]
+        return [e for e in decoded if e.modes.get("teacher", 0) == 0] or None
+
+    probe.wait_for(lambda: len(alone() or []) >= count + SETTLE, 240, f"{count} episodes of the student alone")
+    judged = alone()[SETTLE:count + SETTLE]
+    unsure = sum(e.modes.get("unsure", 0) for e in judged) / sum(e.steps for e in judged)
+    score = base.score(float(np.mean([e.episode_return for e in judged])))
+    print(f"  student alone: returns {[round(e.episode_return, 1) for e in judged]}, score {score:.2f}, "
+          f"unsure {100 * unsure:.0f} %; episodes {[(e.episode, e.steps, e.modes) for e in judged]}")
+    return score
+
+
+@pytest.mark.parametrize(("env", "teacher", "pairs", "episodes"), [
+    ("Pendulum-v1", "pendulum", 2000, 8),
+    ("CartPole-v1", "cartpole", 6000, 8),
+])
+def test_taught_over_the_bus_the_student_alone_reaches_the_teacher(router, tmp_path, env, teacher, pairs, episodes):
+    base = gym.baseline(env, 20)
+    procs = start(router, tmp_path, env, teacher)
+    probe = Probe(router)
+    ended = probe.record("dl/main/episode")
+    try:
+        probe.wait_for(lambda: probe.counter(ARBITRATOR, "commands") > 50, 60, "the loop to run")
+        teach(probe, router, pairs)
+        first = student_alone(probe, ended, episodes, base)
+        print("  arbitrator:", {k: probe.counter(ARBITRATOR, k) for k in ("deadline_misses", "members_silenced",
+                                                                        "mode_unsure", "mode_student")})
+        assert first >= 0.8, f"{env}: taught {pairs} pairs, the student alone scored {first:.2f}"
+        if env == "Pendulum-v1":  # more teaching must not make it worse
+            teach(probe, router, 2 * pairs)
+            again = student_alone(probe, ended, episodes, base)
+            assert again >= 0.8 and again >= first - 0.1, f"taught {3 * pairs} pairs: {again:.2f}, after {pairs}: " \
+                                                          f"{first:.2f}"
+        assert probe.counter("learner/learner", "rejected") == 0
+    finally:
+        probe.close()
+        assert stop(*procs) == [0, 0, 0, 0]
