@@ -1,6 +1,7 @@
 """Teleoperation end to end (issue 15, acceptance 3): a scripted person teaches ball seeking for 60 s
 only through the page's arrow keys (the ball-seeking teacher's policy pressing keys), then the
 student alone seeks the pink ball. deploy/ballseek.toml live, the page in headless chromium."""
+import time
 from collections import Counter
 
 from bus_schema import SpacesMessage, Spaces, TrainingPair, decode
@@ -13,6 +14,23 @@ from tests.harness import free_port
 
 RATE_HZ = 15.0  # deploy/ballseek.toml's
 TEACH_S, EPISODES, EPISODE_S = 60.0, 10, 30.0  # as the demo's pink episodes
+
+
+def _handed_over(run, timeout: float = 2.0) -> int:
+    """The index of the first command after the keys were released that the teacher did not drive: a
+    command already on its way when the key went up is still the teacher's. Within `timeout` seconds."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        modes = [c.mode for c in run.commands()]
+        for i in range(len(modes) - 1, -1, -1):
+            if modes[i] == "teacher":
+                if i + 1 < len(modes):
+                    return i + 1
+                break
+        else:
+            return 0
+        time.sleep(0.02)
+    raise AssertionError(f"the teacher still drove {timeout} s after the keys were released")
 
 
 def test_a_person_teaches_ball_seeking_with_the_arrow_keys(tmp_path):
@@ -30,7 +48,7 @@ def test_a_person_teaches_ball_seeking_with_the_arrow_keys(tmp_path):
             stage.switch(False)
             pairs = (decoded(TrainingPair, k, raw) for k, raw, _ in run.recorded[run.keys.train])
             taught = Counter(p.source for p in pairs if p is not None)
-            alone_from = len(run.recorded[run.keys.command])
+            alone_from = _handed_over(run)
             results = protocol.episodes(stage, 0, "episodes", EPISODES, EPISODE_S, "pink", teaching=False)
             modes = Counter(c.mode for c in run.commands()[alone_from:])
         reached = [r for r in results if r is not None]
