@@ -5,7 +5,10 @@ return, 1 the teacher's (services.experiments.gym.baseline)."""
 import numpy as np
 import pytest
 
-from bus_schema import Episode, decode
+import time
+
+from bus_schema import Episode, InstanceKeys, decode
+from services.demo.live import caught_up
 from services.experiments import gym
 from services.experiments.wiring import wired_learner
 from tests.harness import Probe, dogged, dogged_ok, stop
@@ -15,10 +18,8 @@ ARBITRATOR = "arbitrator/arbitrator"
 # 200 Hz the loop's answer often came after the next tick, the platform applied each command a step late,
 # and the student (trained offline on the same pairs: 0.99) scored 0.49, never catching the pendulum
 RATE_HZ = 0
-# episodes of the student alone not judged: the first may have begun while the teacher was switching off,
-# and in lockstep the teaching outran the learner's fits (on their own thread, as served live), which a
-# person teaching at 50 Hz never does: they catch up while the student drives
-SETTLE = 2
+# episodes of the student alone not judged: the first began while the learner's fits were catching up
+SETTLE = 1
 
 
 def start(router, tmp_path, env: str, teacher: str) -> list:
@@ -32,12 +33,16 @@ def start(router, tmp_path, env: str, teacher: str) -> list:
             dogged("run", "arbitrator", *connect, log=tmp_path / "arbitrator.log")]
 
 
-def teach(probe: Probe, router: str, pairs: int) -> None:
-    """The person switches the teacher on until `pairs` more training pairs went out, then off."""
+def teach(probe: Probe, router: str, pairs: int, statuses: list) -> None:
+    """The person switches the teacher on until `pairs` more training pairs went out, then off; then the
+    learner's fits catch up (in lockstep the teaching outruns them, which a person at 50 Hz never does)."""
     target = probe.counter(ARBITRATOR, "train_pairs") + pairs
     assert dogged_ok("teach", "on", endpoint=router).returncode == 0
     probe.wait_for(lambda: probe.counter(ARBITRATOR, "train_pairs") >= target, 180, f"{pairs} pairs taught")
     assert dogged_ok("teach", "off", endpoint=router).returncode == 0
+    since = time.monotonic()
+    probe.wait_for(lambda: caught_up(statuses, since), 180, "the learner's fits to catch up")
+    print(f"  taught {pairs} pairs; the learner's fits caught up {time.monotonic() - since:.1f} s later")
 
 
 def student_alone(probe: Probe, episodes: list, count: int, base: gym.Baseline) -> float:
@@ -66,15 +71,16 @@ def test_taught_over_the_bus_the_student_alone_reaches_the_teacher(router, tmp_p
     procs = start(router, tmp_path, env, teacher)
     probe = Probe(router)
     ended = probe.record("dl/main/episode")
+    statuses = probe.record(InstanceKeys("main").status("learner", "learner"))
     try:
         probe.wait_for(lambda: probe.counter(ARBITRATOR, "commands") > 50, 60, "the loop to run")
-        teach(probe, router, pairs)
+        teach(probe, router, pairs, statuses)
         first = student_alone(probe, ended, episodes, base)
         print("  arbitrator:", {k: probe.counter(ARBITRATOR, k) for k in ("deadline_misses", "members_silenced",
                                                                         "mode_unsure", "mode_student")})
         assert first >= 0.8, f"{env}: taught {pairs} pairs, the student alone scored {first:.2f}"
         if env == "Pendulum-v1":  # more teaching must not make it worse
-            teach(probe, router, 2 * pairs)
+            teach(probe, router, 2 * pairs, statuses)
             again = student_alone(probe, ended, episodes, base)
             assert again >= 0.8 and again >= first - 0.1, f"taught {3 * pairs} pairs: {again:.2f}, after {pairs}: " \
                                                           f"{first:.2f}"

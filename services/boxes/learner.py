@@ -194,7 +194,8 @@ class LearnerNode:
         query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, *self.pairs.history(n))))
 
     def status(self):
-        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs))
+        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs),
+                        upkeep_under_way=int(self.model.upkeep_under_way))
         return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size),
                           "params": {k: v if isinstance(v, (int, float, str, bool)) else repr(v)
                                      for k, v in self.model.get_params().items()}}

@@ -231,6 +231,12 @@ class Learner:
         (the GP's fits) moves it off the caller's thread. Offline use stays deterministic."""
 
     @property
+    def upkeep_under_way(self) -> int:
+        """Jobs of upkeep (the GP's fits) running or done on another thread and not yet applied: 0 once the
+        answers reflect everything taught (served live; offline always 0)."""
+        return 0
+
+    @property
     def n_learned(self) -> int:
         return self._n_learned
 

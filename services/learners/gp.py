@@ -34,7 +34,8 @@ class GP(Learner):
     """Parameters: `leaves` (most leaves, 1: one GP), `memory` (samples per leaf), and every parameter of
     `gp_local.LocalGP`, passed to each leaf: `near` (the share of the taught span an answer must be
     within to count as right: confidence), `fit_points`, `first_fit`, `refit_every`, `noise_floor`,
-    `relevance_prior_sd`, `max_iterations`, `novelty_scale`.
+    `relevance_prior_sd`, `max_iterations`, `novelty_scale`, `noise_ceiling` (the largest noise sd a fit
+    may find, as a share of the taught span; default half of `near`).
 
     >>> import numpy as np
     >>> model = GP(2, 1)
@@ -50,7 +51,7 @@ class GP(Learner):
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, leaves: int = 8, memory: int = 400,
                  near: float = 0.04, fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024,
                  noise_floor: float = 1e-5, relevance_prior_sd: float = 2.0, max_iterations: int = 60,
-                 novelty_scale: float = 0.25):
+                 novelty_scale: float = 0.25, noise_ceiling: float | None = None):
         super().__init__(n_in, n_out, seed)
         if not isinstance(leaves, (int, np.integer)) or isinstance(leaves, bool) or not 1 <= leaves <= 256:
             raise ValueError(f"hyper-parameter leaves must be an integer from 1 to 256, got {leaves!r}")
@@ -58,6 +59,7 @@ class GP(Learner):
         self.first_fit, self.refit_every, self.noise_floor = first_fit, refit_every, noise_floor
         self.relevance_prior_sd, self.max_iterations, self.novelty_scale = relevance_prior_sd, max_iterations, \
             novelty_scale
+        self.noise_ceiling = noise_ceiling
         root = LocalGP(n_in, n_out, seed, **self._leaf_params())  # also checks every leaf parameter
         root.may_split = leaves > 1
         self._parts = [root]
@@ -147,6 +149,10 @@ class GP(Learner):
         """Every leaf fits on the fitter's thread (gp_local.LocalGP.serve_live), and so do the halves of a split."""
         for part in self._parts:
             part.serve_live()
+
+    @property
+    def upkeep_under_way(self) -> int:
+        return sum(part.upkeep_under_way for part in list(self._parts))
 
     # --- prediction -------------------------------------------------------------------------
     def predict_one(self, x):

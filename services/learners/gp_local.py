@@ -4,31 +4,32 @@ the wired learner, `gp` (gp.py), which splits a leaf where its halves are better
 
 It remembers up to `memory` samples and answers with the exact posterior over them. A pair within a
 thousandth of the data's spread of a remembered one adds nothing and is not remembered: a robot held
-still gives thousands of them. Past `memory`, the most redundant are thinned
-(gp_memory: where the memory is densest, the older of two close samples), so every region taught
-keeps its examples and a newer lesson outweighs an older one there. One length scale per input and
-the outputs' amplitude and noise are refitted by maximum a posteriori evidence (gp_evidence) after
-`first_fit` samples and then each time half as many again, 8, 12, 18, 27, ... (never on fewer
-samples than inputs: those cannot tell which inputs matter), then every `refit_every`, and early when
-the teaching surprises the fit or spreads an input further than the fit saw: inputs that do not
-explain the teaching (distractors, readings dragged along) grow long length scales and stop
-mattering. The teacher is assumed right (the paper's premise): the noise a fit may call the
-teaching's is at most half of `near` of the taught span, so inconsistency beyond that is structure to
-be learned, not averaged away. Serving live (`serve_live`, the learner service) a fit runs on a
-thread of its own and is applied when done; teaching that went on meanwhile is fitted next, so when
-teaching stops the last fit has seen it all. Far from what it was taught the posterior reverts to the
-taught mean, and an answer is held to the taught range plus 10 % of its span, unless the evidence
-says the map is linear: a linear map extends past the part of it that was shown (the mirroring task,
-from 15-30 samples), a curved one's trend is not followed away from what was taught.
+still gives thousands of them. Past `memory`, the most redundant are thinned (gp_memory: where the
+memory is densest, the older of two close samples), so every region taught keeps its examples and a
+newer lesson outweighs an older one there. One length scale per input and the outputs' amplitude and
+noise are refitted by maximum a posteriori evidence (gp_evidence) after `first_fit` samples and then
+each time half as many again, 8, 12, 18, 27, ... (never on fewer samples than inputs: those cannot tell
+which inputs matter), then every `refit_every`, and early when the teaching surprises the fit or spreads
+an input further than the fit saw: inputs that do not explain the teaching (distractors, readings
+dragged along) grow long length scales and stop mattering. The teacher is assumed right (the paper's
+premise): the noise a fit may call the teaching's is at most `noise_ceiling` of the taught span
+(default: half of `near`), so inconsistency beyond that is structure to be learned, not averaged away.
+Serving live (`serve_live`, the learner service) a fit runs on a thread of its own and is applied when
+done; teaching that went on meanwhile is fitted next, so when teaching stops the last fit has seen it
+all. Far from what it was taught the posterior reverts to the taught mean, and an answer is held to the
+taught range plus 10 % of its span, unless the evidence says the map is linear: a linear map extends
+past the part of it that was shown (the mirroring task, from 15-30 samples), a curved one's trend is not
+followed away from what was taught.
 
 Confidence is the probability that the answer is within `near` of the taught span from the map the
-teacher shows, under the posterior, beyond the chance of that under the prior: p = erf(near * span /
-(sd * sqrt 2)) for the least sure output, sd the map's posterior sd (what more teaching would make
-surer, not the teaching's own noise: asking where the teacher is inconsistent teaches nothing), and
-(p - p0) / (1 - p0) with p0 the same under the prior's sd (an untaught answer is within near=0.2 of
-the span with probability 0.31, which must not read as support), times a ramp over the first 2 n_in samples (a handful
-of samples says little about how much the outputs vary) and, along inputs that never varied (whose
-relevance no fit could learn), the input envelope's novelty discount (services.learners.novelty).
+teacher shows, under the posterior: erf(near * span / (sd * sqrt 2)) for the least sure output, sd the
+map's posterior sd (what more teaching would make surer, not the teaching's own noise: asking where the
+teacher is inconsistent teaches nothing), times a ramp over the first 2 n_in samples (a handful of samples
+says little about how much the outputs vary) and, along inputs that never varied (whose relevance no fit
+could learn), the input envelope's novelty discount (services.learners.novelty). Far from everything
+taught the sd is the prior's, at least half the span, and the confidence erf(near * sqrt 2): under the
+paper's 0.25 where the robot asks for `near` up to 0.16, above it beyond (0.31 at 0.2: then only novelty
+makes the robot ask, as ball seeking wants; control tasks take 0.1, deploy/gym.toml).
 """
 from __future__ import annotations
 
@@ -57,7 +58,8 @@ SPREAD_GROWTH = 2.0
 # the smooth part's share of the prior variance under which the evidence calls a map linear: fits
 # of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
 LINEAR_ENOUGH = 1e-3
-# the largest noise sd a fit may find, as a share of `near` of the taught span: the teacher is assumed right,
+# the largest noise sd a fit may find, as a share of `near` of the taught span, unless `noise_ceiling` says (as a
+# share of the span itself): the teacher is assumed right,
 # so teaching that varies by more than that where the inputs hardly do is a map to learn (a switch, a sharp
 # turn), not noise to average away: left free, fits of a pendulum's swing-up called a third of the teaching
 # noise and the student stopped catching the pendulum
@@ -92,11 +94,13 @@ def _splitter() -> ThreadPoolExecutor:
 class LocalGP(Learner):
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, memory: int = 800, near: float = 0.04,
                  fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024, noise_floor: float = 1e-5,
-                 relevance_prior_sd: float = 2.0, max_iterations: int = 60, novelty_scale: float = 0.25):
+                 relevance_prior_sd: float = 2.0, max_iterations: int = 60, novelty_scale: float = 0.25,
+                 noise_ceiling: float | None = None):
         super().__init__(n_in, n_out, seed)
         self.memory, self.near, self.fit_points, self.first_fit = memory, near, fit_points, first_fit
         self.refit_every, self.noise_floor, self.max_iterations = refit_every, noise_floor, max_iterations
         self.relevance_prior_sd, self.novelty_scale = relevance_prior_sd, novelty_scale
+        self.noise_ceiling = noise_ceiling
         for name, least in (("memory", 8), ("fit_points", 2), ("first_fit", 1), ("refit_every", 1),
                             ("max_iterations", 1)):
             value = getattr(self, name)
@@ -106,6 +110,8 @@ class LocalGP(Learner):
         check_range("noise_floor", noise_floor, 1e-12, 0.5)
         check_positive("relevance_prior_sd", relevance_prior_sd)
         check_positive("novelty_scale", novelty_scale, strictly=False)  # 0: off
+        if noise_ceiling is not None:
+            check_range("noise_ceiling", noise_ceiling, 1e-6, 1.0)
         self._m = 0
         self._xs, self._ys = np.zeros((0, n_in)), np.zeros((0, n_out))
         self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was learned
@@ -270,13 +276,18 @@ class LocalGP(Learner):
         deterministic."""
         self._background = True
 
+    @property
+    def upkeep_under_way(self) -> int:
+        return int(self._pending is not None) + int(self._searching is not None)
+
     def _refit(self) -> None:
         if self._pending is not None:
             return  # one fit at a time; whatever asked for this one will ask again
         if self._m <= self.n_in:
             return  # fewer samples than inputs cannot tell which inputs matter: the prior's scales stand
         # the teacher is assumed right: what it shows inconsistently beyond half of `near` is to be learned
-        ceiling = NOISE_SHARE_OF_NEAR * self.near * self._taught.span
+        share = NOISE_SHARE_OF_NEAR * self.near if self.noise_ceiling is None else self.noise_ceiling
+        ceiling = share * self._taught.span
         consider = self.may_split and self._m >= max(MIN_SPLIT_SAMPLES, 8 * self.n_in) and \
             self._y_count >= self._split_check
         if consider:  # again once the leaf has learned twice as much: a search is five fits
@@ -391,10 +402,6 @@ class LocalGP(Learner):
         with np.errstate(divide="ignore", invalid="ignore"):
             near = self.near * span / math.sqrt(2.0)
             per_output = np.where(map_sd > 0.0, erf(near / map_sd), 1.0)
-            # beyond chance: an answer anywhere in the prior is within `near` with some probability (0.31 at
-            # near 0.2), which is no support at all; confidence counts only what the teaching added
-            by_chance = np.where(amplitude2 > 0.0, erf(near / np.sqrt(amplitude2)), 0.0)
-            per_output = np.clip((per_output - by_chance) / (1.0 - by_chance), 0.0, 1.0)
         # an answer is held within the taught range plus a margin, unless the evidence says the map is
         # linear (the smooth part's share of the variance under LINEAR_ENOUGH): a linear map extends past
         # the part of it that was shown, and there the posterior mean is the likelier answer than any

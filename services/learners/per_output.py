@@ -54,6 +54,10 @@ class PerOutput(Learner):
         for part in self._parts:
             part.serve_live()
 
+    @property
+    def upkeep_under_way(self) -> int:
+        return sum(part.upkeep_under_way for part in self._parts)
+
     def _bound(self, y: np.ndarray) -> np.ndarray:
         return y  # each part holds its own answers
 
