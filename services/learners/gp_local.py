@@ -34,8 +34,6 @@ makes the robot ask, as ball seeking wants; control tasks take 0.1, deploy/gym.t
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
-from functools import partial
 
 import numpy as np
 from scipy.linalg import solve_triangular
@@ -43,55 +41,18 @@ from scipy.special import erf
 
 from . import gp_kernels
 from .base import FADE, Learner, Predictions, check_positive, check_range, kernel_ready
-from .gp_evidence import Hyper, first_hyper, linear_share
+from .gp_evidence import Hyper, first_hyper
+from .gp_fitting import SURPRISE_REFIT_GAP, Refitting
 from .gp_memory import densest_older
-from .gp_split import RELEVANCE_RATIO, fit_and_split
 from .novelty import InputEnvelope
 
-# refit early once the mean squared standardised error of the last taught ticks passes SURPRISED
-# (typical errors of two standard deviations), at most every SURPRISE_REFIT_GAP samples, and each
-# such refit doubles the wait for the next
-SURPRISED, SURPRISE_REFIT_GAP = 4.0, 8
-# and once an input's spread grows past SPREAD_GROWTH times what the last fit saw: the teaching now
-# spans a direction the fit hardly knew (an input that never varied starts to: the orange ball)
-SPREAD_GROWTH = 2.0
 # the smooth part's share of the prior variance under which the evidence calls a map linear: fits
 # of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
 LINEAR_ENOUGH = 1e-3
-# the largest noise sd a fit may find, as a share of `near` of the taught span, unless `noise_ceiling` says (as a
-# share of the span itself): the teacher is assumed right,
-# so teaching that varies by more than that where the inputs hardly do is a map to learn (a switch, a sharp
-# turn), not noise to average away: left free, fits of a pendulum's swing-up called a third of the teaching
-# noise and the student stopped catching the pendulum
-NOISE_SHARE_OF_NEAR = 0.5
 DUPLICATE = 1e-3  # of an input's spread, of an output's taught span: a pair this near a remembered one adds nothing
-MIN_SPLIT_SAMPLES = 64  # remembered, before a leaf weighs a split (and 8 per input): fewer fit noisily
 
 
-
-_FITTER: ThreadPoolExecutor | None = None
-_SPLITTER: ThreadPoolExecutor | None = None
-
-
-def _fitter() -> ThreadPoolExecutor:
-    """One thread for every GP of the process that serves live: fits queue rather than crowd the cores."""
-    global _FITTER
-    if _FITTER is None:
-        _FITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-fit")
-    return _FITTER
-
-
-def _splitter() -> ThreadPoolExecutor:
-    """One more for the search for splits (gp_split: five fits where a refit is one), so that no refit waits
-    behind one: under load a correction's refit queued behind searches, and the corrected ball-seeking
-    student went on asking about the orange ball (21 % of its ticks, where it had been 0)."""
-    global _SPLITTER
-    if _SPLITTER is None:
-        _SPLITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-split")
-    return _SPLITTER
-
-
-class LocalGP(Learner):
+class LocalGP(Refitting, Learner):
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, memory: int = 800, near: float = 0.04,
                  fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024, noise_floor: float = 1e-5,
                  relevance_prior_sd: float = 2.0, max_iterations: int = 60, novelty_scale: float = 0.25,
@@ -151,18 +112,7 @@ class LocalGP(Learner):
         self._count_target(y)
         if not self._near_duplicate(x, y):
             self._remember(x, y)
-        if self._y_count >= self._next_fit and self._pending is None:  # n_learned lags inside learn_many
-            self._next_fit += min(max(self._next_fit // 2, 1), self.refit_every)
-            if self._factored:
-                self._refit()
-        elif self._factored and self._y_count - self._last_fit >= SURPRISE_REFIT_GAP:
-            if np.any(self._input_sd() > SPREAD_GROWTH * self._fitted_sd):
-                self._refit()  # the teaching spans an input further than the fit saw
-            elif self._surprise > SURPRISED and self._y_count - self._last_fit >= self._surprise_gap:
-                # the teaching contradicts the fit; if refitting does not end that (a mismatch no fit can
-                # mend), the next try waits twice as long
-                self._surprise_gap = min(2 * self._surprise_gap, self.refit_every)
-                self._refit()
+        self._fit_when_due()
 
     def _near_duplicate(self, x: np.ndarray, y: np.ndarray) -> bool:
         """A remembered pair within DUPLICATE of each input's spread and each output's taught span (exactly,
@@ -195,13 +145,6 @@ class LocalGP(Learner):
                                      self._smooth, self._linear, self._ratio, before)
         self._m = m + 1
         self._weigh_surprise(y - self._hyper.mu - before, unit_var)
-
-    def _weigh_surprise(self, error: np.ndarray, unit_var: float) -> None:
-        """Every taught tick tests what the learner would have said: a running mean of the squared
-        standardised error (over the least expected output), which a refit resets."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z2 = np.where(error != 0.0, error * error / (unit_var * self._amplitude2()), 0.0)
-        self._surprise += (min(float(z2.max()), 25.0) - self._surprise) / SURPRISE_REFIT_GAP
 
     def _input_sd(self) -> np.ndarray:
         """Each input's spread over everything learned (0 for an input that never varied)."""
@@ -268,79 +211,6 @@ class LocalGP(Learner):
             child._use(hyper or self._hyper)
             child._refit()  # its own fit, and whether it too is two regions, even if no teaching follows
         return child
-
-    # --- hyper-parameters ---------------------------------------------------------------------
-    def serve_live(self) -> None:
-        """Fit hyper-parameters on another thread from now on (a fit takes up to seconds; the loop must
-        not wait), applying each at the next call once done. Offline use stays synchronous and
-        deterministic."""
-        self._background = True
-
-    @property
-    def upkeep_under_way(self) -> int:
-        return int(self._pending is not None) + int(self._searching is not None)
-
-    def _refit(self) -> None:
-        if self._pending is not None:
-            return  # one fit at a time; whatever asked for this one will ask again
-        if self._m <= self.n_in:
-            return  # fewer samples than inputs cannot tell which inputs matter: the prior's scales stand
-        # the teacher is assumed right: what it shows inconsistently beyond half of `near` is to be learned
-        share = NOISE_SHARE_OF_NEAR * self.near if self.noise_ceiling is None else self.noise_ceiling
-        ceiling = share * self._taught.span
-        consider = self.may_split and self._m >= max(MIN_SPLIT_SAMPLES, 8 * self.n_in) and \
-            self._y_count >= self._split_check
-        if consider:  # again once the leaf has learned twice as much: a search is five fits
-            self._split_check = 2 * self._y_count
-        job = partial(fit_and_split, self._xs[:self._m].copy(), self._ys[:self._m].copy(), self._hyper,
-                      self.fit_points, self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling)
-        seen = (self._input_sd(), self._y_count)  # what the fit sees, for the refit triggers
-        if not self._background:
-            self._adopt(job(consider), seen)
-            return
-        self._pending = (_fitter().submit(job, False), seen)
-        if consider and self._searching is None:
-            self._searching = _splitter().submit(job, True)
-
-    def _collect(self) -> None:
-        """Apply a fit done on the fitter's thread (a failed one leaves the last fit in place). If
-        teaching went on while it ran, fit again: when teaching stops, the last fit has seen it all."""
-        if self._searching is not None and self._searching.done():
-            done, self._searching = self._searching, None
-            if done.exception() is None and done.result()[1] is not None:
-                self.proposed_split = done.result()[1]
-        if self._pending is not None and self._pending[0].done():
-            (done, seen), self._pending = self._pending, None
-            if done.exception() is None:
-                self._adopt(done.result(), seen)
-            if self._y_count > seen[1]:
-                self._refit()
-
-    def _adopt(self, found: tuple, seen: tuple) -> None:
-        """A fit and, where it was considered, a split its evidence favours (gp_split): the tree applies it."""
-        hyper, split = found
-        both = hyper.varied & self._hyper.varied
-        flipped = bool(np.any(np.abs(hyper.log_ell - self._hyper.log_ell)[both] >= RELEVANCE_RATIO))
-        self._use(hyper, seen)
-        if split is not None:
-            self.proposed_split = split
-        elif flipped and self.may_split:
-            # what matters changed at once (the pendulum's sine from a length scale of 0.4 to 41 as the swing's
-            # samples came to outnumber the catch's): likely two regimes; weigh a split at the next sample
-            self._split_check, self._next_fit = 0, self._y_count + 1
-
-    def _use(self, hyper: Hyper, seen: tuple | None = None, rebuild: bool = True) -> None:
-        """Adopt a fit: the kernel's working quantities, the factor, and the refit triggers' baselines:
-        the spread and count the fit saw (learning that went on while it ran is yet to be fitted)."""
-        self._hyper = hyper
-        self._inv_ell = np.exp(-hyper.log_ell)
-        self._linear = linear_share(hyper.logit_linear)
-        self._smooth = 1.0 - self._linear
-        self._ratio = max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), self.noise_floor)
-        self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
-        self._surprise = 0.0
-        if rebuild:
-            self._rebuild()
 
     def _rebuild(self) -> None:
         """The Cholesky factor and beta over the memory, from scratch."""
