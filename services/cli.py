@@ -11,6 +11,11 @@ from services.boxes import BOX_ROLES
 BOXES = {name: f"services.boxes.{name}" for name in BOX_ROLES}
 
 
+# verbs that parse their own arguments (`run` too): the module and function that do
+OWN_PARSERS = {"ui": ("services.boxes.ui", "cli"), "demo": ("services.demo", "cli"),
+               "replay": ("services.recording.cli", "replay_main"), "play": ("services.recording.cli", "play_main")}
+
+
 def run_box(argv: list[str]) -> int:
     if not argv or argv[0] not in BOXES:
         print(f"usage: dogged run <box> [options]; boxes: {', '.join(BOXES)}", file=sys.stderr)
@@ -18,22 +23,31 @@ def run_box(argv: list[str]) -> int:
     return importlib.import_module(BOXES[argv[0]]).cli(argv[1:])
 
 
+def run_own_parser(verb: str, argv: list[str]) -> int:
+    if verb == "run":
+        return run_box(argv)
+    module, function = OWN_PARSERS[verb]
+    return getattr(importlib.import_module(module), function)(argv)
+
+
+def split_at_verb(argv: list[str]) -> tuple[list[str], str | None, list[str]]:
+    """(the global flags before the verb, the verb, what follows it); no verb when something else comes
+    first (--help, an unknown flag), which the verbs' parser then explains."""
+    parser = argparse.ArgumentParser(add_help=False, parents=[global_flags()])
+    parser.add_argument("verb", nargs="?")
+    parser.add_argument("rest", nargs=argparse.REMAINDER)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown or args.verb is None:
+        return [], None, argv
+    return argv[:len(argv) - len(args.rest) - 1], args.verb, args.rest
+
+
 def main(argv: list[str] | None = None) -> int:
     from services.bus.config import use_certificate
     argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["run"]:
-        return run_box(argv[1:])
-    if argv[:1] == ["ui"]:
-        return run_box(argv)
-    if argv[:1] == ["demo"]:
-        from services.demo import cli as demo
-        return demo(argv[1:])
-    if argv[:1] == ["replay"]:
-        from services.recording.cli import replay_main
-        return replay_main(argv[1:])
-    if argv[:1] == ["play"]:
-        from services.recording.cli import play_main
-        return play_main(argv[1:])
+    before, verb, after = split_at_verb(argv)
+    if verb == "run" or verb in OWN_PARSERS:  # flags given before the verb mean what they mean after it
+        return run_own_parser(verb, [*after, *before])
     args = verbs_parser().parse_args(argv)
     use_certificate(args)
     if args.verb == "up":
@@ -46,15 +60,29 @@ def main(argv: list[str] | None = None) -> int:
     return getattr(commands, args.verb)(args)
 
 
-def verbs_parser() -> argparse.ArgumentParser:
-    """`dogged <verb>`: the supervisor's verbs (`run`, `demo`, `replay` and `play` parse their own arguments)."""
+def global_flags(after_verb: bool = False) -> argparse.ArgumentParser:
+    """The flags that say which bus and profile a verb talks to, and as whom. Given after the verb they
+    default to nothing: argparse would let a verb's defaults overwrite what was given before it."""
     from services.bus.config import add_certificate_args
-    parser = argparse.ArgumentParser(prog="dogged", description=__doc__)
-    parser.add_argument("--connect", default=None,
-                        help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
-    parser.add_argument("--profile", default=None, help="which running profile (default: the only one)")
+    parser = argparse.ArgumentParser(add_help=False, argument_default=argparse.SUPPRESS if after_verb else None)
+    parser.add_argument("--connect", help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
+    parser.add_argument("--profile", help="which running profile (default: the only one)")
     add_certificate_args(parser)
+    return parser
+
+
+def verbs_parser() -> argparse.ArgumentParser:
+    """`dogged <verb>`: the supervisor's verbs (`run`, `ui`, `demo`, `replay` and `play` parse their own
+    arguments)."""
+    parser = argparse.ArgumentParser(prog="dogged", description=__doc__, parents=[global_flags()],
+                                     epilog="--connect, --profile, --security and --identity go before the verb "
+                                            "or after it (up and certs do not use them).")
     sub = parser.add_subparsers(dest="verb", required=True)
+    flags_after_verb = [global_flags(after_verb=True)]
+
+    def asks_supervisor(verb: str, help: str) -> argparse.ArgumentParser:
+        return sub.add_parser(verb, parents=flags_after_verb, help=help)
+
     sub.add_parser("run", help="run one box: dogged run <box> --help")
     sub.add_parser("ui", help="a page in a browser to watch, teach and teleoperate the robot (dogged ui --help)")
     sub.add_parser("demo", help="the headline demo: ball seeking end to end (dogged demo --help)")
@@ -73,33 +101,34 @@ def verbs_parser() -> argparse.ArgumentParser:
                        help="make every identity this profile needs (repeatable: one CA for several machines)")
     certs.add_argument("--identity", action="append", default=[], metavar="ROLE.NAME",
                        help="one more, e.g. operator.bob or teacher.alice (repeatable)")
-    sub.add_parser("down", help="stop a running profile")
-    ps = sub.add_parser("ps", help="list services: pid, state, restarts, uptime, message rates")
+    asks_supervisor("down", help="stop a running profile")
+    ps = asks_supervisor("ps", help="list services: pid, state, restarts, uptime, message rates")
     ps.add_argument("--json", action="store_true", help="one JSON object, for scripts")
-    logs = sub.add_parser("logs", help="one service's log")
+    logs = asks_supervisor("logs", help="one service's log")
     logs.add_argument("service")
     logs.add_argument("-n", "--lines", type=int, default=50)
-    swap = sub.add_parser("swap", help="hot-swap a learner: dogged swap learner <spec>")
+    swap = asks_supervisor("swap", help="hot-swap a learner: dogged swap learner <spec>")
     swap.add_argument("what", choices=["learner"])
     swap.add_argument("spec", help="learner name with optional params, e.g. sogp or lwpr:init_d=25")
     swap.add_argument("--service", default="", help="which learner service (default: the only one)")
-    teach = sub.add_parser("teach", help="switch teachers on or off")
+    teach = asks_supervisor("teach", help="switch teachers on or off")
     teach.add_argument("switch", choices=["on", "off"])
     teach.add_argument("--teacher", default="", help="teacher name (default: every teacher)")
     teach.add_argument("--instance", default="main")
-    watch = sub.add_parser("watch", help="the robot's ears in a terminal: a line each time the mode changes")
+    watch = asks_supervisor("watch", help="the robot's ears in a terminal: a line each time the mode changes")
     watch.add_argument("--instance", default="main")
     watch.add_argument("--settle", type=float, default=0.2, help="seconds a mode must hold before it is shown")
     watch.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: until Ctrl-C)")
     watch.add_argument("--bell", action="store_true", help="ring the terminal bell when the robot asks to be taught")
-    arena = sub.add_parser("arena",
-                           help="rebuild the robot's arena and put balls down: dogged arena --ball pink=0.8,0.2")
+    arena = asks_supervisor("arena",
+                            help="rebuild the robot's arena and put balls down: dogged arena --ball pink=0.8,0.2")
     arena.add_argument("--seed", type=int, default=0, help="arena seed: clutter and where the robot starts (default 0)")
     arena.add_argument("--ball", action="append", metavar="NAME=X,Y|NAME=off",
                        help="put a ball at X,Y metres (the robot starts at 0,0 facing +x), "
                             "or take it away (repeatable)")
     arena.add_argument("--robot", default="aibo")
     return parser
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -26,11 +26,12 @@ def add_bus_args(parser: argparse.ArgumentParser) -> None:
 
 
 def add_certificate_args(parser) -> None:
-    # (dests of their own: `dogged certs` has an --identity of its own)
-    parser.add_argument("--security", dest="cert_dir", default=None, metavar="DIR",
+    # (dests of their own: `dogged certs` has an --identity of its own; no default of their own: the
+    # parser's, which is "absent" where they follow a verb, see services/cli.py)
+    parser.add_argument("--security", dest="cert_dir", metavar="DIR",
                         help="a `dogged certs` directory holding ca.pem and this identity's key and certificate "
                              "(default $DOGGED_SECURITY): mutual TLS to a secured router")
-    parser.add_argument("--identity", dest="cert_identity", default=None, metavar="ROLE.NAME",
+    parser.add_argument("--identity", dest="cert_identity", metavar="ROLE.NAME",
                         help="which certificate of it to show, e.g. teacher.alice (default $DOGGED_IDENTITY)")
 
 

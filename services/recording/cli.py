@@ -95,6 +95,7 @@ def replay_main(argv: list[str]) -> int:
 def play_main(argv: list[str]) -> int:
     """`dogged play RUN`: the run's inputs published in place of the platform, at the recorded rate times
     --speed (the platform box with the recorded platform: spaces, start-up wait, status as any platform)."""
+    from services.bus.config import add_certificate_args
     parser = argparse.ArgumentParser(prog="dogged play",
                                      description="Publish a recorded run's inputs in place of the platform.")
     parser.add_argument("run", help="a recorder's folder or one .mcap file")
@@ -103,6 +104,7 @@ def play_main(argv: list[str]) -> int:
     parser.add_argument("--loop", action="store_true", help="start again at the end (default: stop)")
     parser.add_argument("--name", default="player")
     parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or the local one)")
+    add_certificate_args(parser)
     args = parser.parse_args(argv)
     from services.platforms.recorded import RecordedPlatform
     try:
@@ -121,6 +123,7 @@ def play_main(argv: list[str]) -> int:
                 "--param", f"loop={json.dumps(args.loop)}", "--rate", f"{rate:.6g}"]
     if not args.loop:
         box_args += ["--max-ticks", str(len(recorded))]
-    if args.connect:
-        box_args += ["--connect", args.connect]
+    for flag, value in (("--connect", args.connect), ("--security", args.cert_dir), ("--identity", args.cert_identity)):
+        if value:  # the bus flags, handed on
+            box_args += [flag, value]
     return platform.cli(box_args)
