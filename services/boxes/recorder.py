@@ -29,7 +29,7 @@ from services.bus.inbox import Inbox, Rejects
 from services.bus.lifecycle import StopFlag, setup_logging
 from services.bus.publishers import StatusPublisher
 from services.recording.reader import is_finished, repair
-from services.recording.writer import RunWriter, file_index
+from services.recording.writer import McapTooOld, RunWriter, check_mcap, file_index
 
 RETRY_S = 5.0  # after a write failed, how long before a new file is tried
 
@@ -154,6 +154,11 @@ def take(recording: Recording, items) -> None:
 def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str, out: Path, rotate_mb: float,
          rotate_min: float, flush_s: float, inbox_mb: float = 256.0) -> int:
     log = setup_logging("recorder", name)
+    try:
+        check_mcap()
+    except McapTooOld as err:
+        log.error("%s", err)
+        return 2
     stop, inbox = StopFlag(), Inbox(int(inbox_mb * 2**20))
     repair_unfinished(out, name, log)
     writer = RunWriter(out, name, int(rotate_mb * 1e6), rotate_min * 60.0, flush_s)

@@ -9,6 +9,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import mcap
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 
@@ -16,6 +17,28 @@ from bus_schema.catalog import json_schema
 
 PROFILE = "dogged"  # the MCAP header's profile: files written by this recorder
 _NAME = "{name}-{index:04d}-{stamp}.mcap"
+
+# what the recorder uses of mcap (here and in reader.repair); Writer.flush and MessageEncoding.MessagePack
+# came in mcap 1.5.0, the floor pyproject.toml asks for
+MCAP_NEEDED = "1.5.0"
+MCAP_USES = {Writer: ("start", "add_metadata", "register_schema", "register_channel", "add_message", "flush",
+                      "finish"),
+             MessageEncoding: ("MessagePack",), SchemaEncoding: ("JSONSchema",), CompressionType: ("ZSTD",)}
+
+
+class McapTooOld(RuntimeError):
+    """The installed mcap lacks something the recorder uses."""
+
+
+def check_mcap() -> None:
+    """Raises McapTooOld, naming the release needed, if the installed mcap lacks something the recorder
+    uses (without this, it would fail at its first write or flush with an AttributeError, again at each
+    restart)."""
+    missing = [f"{owner.__name__}.{name}" for owner, names in MCAP_USES.items() for name in names
+               if not hasattr(owner, name)]
+    if missing:
+        raise McapTooOld(f"the installed mcap {mcap.__version__} has no {', '.join(missing)}, which the recorder "
+                         f"uses: install mcap>={MCAP_NEEDED} (pip install 'mcap>={MCAP_NEEDED}')")
 
 
 def file_index(path: Path, name: str) -> int | None:
