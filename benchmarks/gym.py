@@ -68,9 +68,10 @@ def short(env: str) -> str:
 
 
 def blocks_table(results: list[dict], bases: dict) -> list[str]:
-    lines = [f"{'env':<22}{'learner':<16}{'teacher':>9}{'random':>9}  " +
-             "".join(f"{f'{s:.0f} s':>16}" for s in BLOCKS) + "   (score median [worst], unsure %)"]
     keys = sorted({(r["env"], r["learner"]) for r in results}, key=lambda k: (list(gym.TASKS).index(k[0]), k[1]))
+    env_w, learner_w = (max(len(k[i]) for k in keys) + 2 for i in (0, 1))
+    lines = [f"{'env':<{env_w}}{'learner':<{learner_w}}{'teacher':>9}{'random':>9}  " +
+             "".join(f"{f'{s:.0f} s':>16}" for s in BLOCKS) + "   (score median [worst], unsure %)"]
     for env, learner in keys:
         runs = [r for r in results if (r["env"], r["learner"]) == (env, learner)]
         cells = []
@@ -78,7 +79,7 @@ def blocks_table(results: list[dict], bases: dict) -> list[str]:
             scores = [r["rows"][b]["score"] for r in runs]
             unsure = np.median([r["rows"][b]["unsure"] for r in runs])
             cells.append(f"{np.median(scores):5.2f} [{min(scores):5.2f}] {100 * unsure:3.0f}%")
-        lines.append(f"{env:<22}{learner:<16}{bases[env].teacher:9.1f}{bases[env].random:9.1f}  " +
+        lines.append(f"{env:<{env_w}}{learner:<{learner_w}}{bases[env].teacher:9.1f}{bases[env].random:9.1f}  " +
                      "".join(f"{c:>16}" for c in cells))
     return lines
 
