@@ -6,8 +6,9 @@ import pytest
 from services.learners.base import Learner, Predictions
 from services.learners.checks import (
     check_confidence_doubts_a_query_off_the_span, check_confidence_in_unit_interval,
-    check_confidence_knows_what_it_knows, check_inputs_not_mutated, check_memory_bounded, check_no_aliasing,
-    check_no_nan_on_degenerate_streams, check_predict_before_learn, check_sane_on_robot_streams,
+    check_confidence_knows_what_it_knows, check_inputs_not_mutated, check_learn_many_matches_learn_one,
+    check_memory_bounded, check_no_aliasing, check_no_nan_on_degenerate_streams, check_predict_before_learn,
+    check_sane_on_robot_streams,
 )
 
 
@@ -97,6 +98,38 @@ class SureOffTheSpan(MeanLearner):
         return Predictions(super()._predict_many(xs).y, np.where(np.abs(xs).max(1) <= 1.0, 0.9, 0.0))
 
 
+class OwnLearnOne(MeanLearner):
+    """A learn_one of its own that leaves the base class's bookkeeping, beside the inherited learn_many
+    that keeps it (per-output's, before it had a learn_many of its own)."""
+
+    def learn_one(self, x, y):
+        self._learn_one(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        self._n_learned += 1
+
+
+class LaggingCount(MeanLearner):
+    """Keeps a running mean by n_learned, which the base class's learn_many counts only after the batch."""
+
+    def __init__(self, n_in, n_out, seed=0):
+        super().__init__(n_in, n_out, seed)
+        self._mean = np.zeros(n_out)
+
+    def _learn_one(self, x, y):
+        super()._learn_one(x, y)
+        self._mean = self._mean + (y - self._mean) / (self._n_learned + 1)
+
+    def _predict_many(self, xs):
+        p = super()._predict_many(xs)
+        return p if self._n_learned == 0 else Predictions(np.tile(self._mean, (len(xs), 1)), p.confidence)
+
+
+class BatchKeepsTheLastRow(MeanLearner):
+    """A batch path of its own that learns only each batch's last row."""
+
+    def _learn_many(self, xs, ys):
+        self._learn_one(xs[-1], ys[-1])
+
+
 def factory(cls):
     return lambda seed=0: cls(3, 2, seed=seed)
 
@@ -112,6 +145,13 @@ def factory(cls):
     (check_sane_on_robot_streams, Overconfident, "confidence far from the teaching"),
     (check_no_nan_on_degenerate_streams, NaNModel, "answered NaN or inf"),
     (check_confidence_doubts_a_query_off_the_span, SureOffTheSpan, "two inputs apart 0.90, not below 0.25"),
+    (check_learn_many_matches_learn_one, OwnLearnOne,
+     r"1 rows learned, the last 1 by one learn_many: learn_many's taught range is \[.*\], learn_one's "
+     r"\[inf, inf, -inf, -inf\]"),
+    (check_learn_many_matches_learn_one, LaggingCount,
+     "3 rows learned, the last 2 by one learn_many: learn_many's answers differ from learn_one's by up to"),
+    (check_learn_many_matches_learn_one, BatchKeepsTheLastRow,
+     "3 rows learned, the last 2 by one learn_many: learn_many's answers differ from learn_one's by up to"),
 ])
 def test_check_fails_a_broken_learner(check, broken, reason):
     with pytest.raises(AssertionError, match=reason):
@@ -119,6 +159,7 @@ def test_check_fails_a_broken_learner(check, broken, reason):
 
 
 @pytest.mark.parametrize("check", [check_inputs_not_mutated, check_no_aliasing, check_memory_bounded,
-                                   check_confidence_in_unit_interval, check_predict_before_learn])
+                                   check_confidence_in_unit_interval, check_predict_before_learn,
+                                   check_learn_many_matches_learn_one])
 def test_check_passes_the_simple_learner(check):
     check(factory(MeanLearner))

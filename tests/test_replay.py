@@ -97,8 +97,8 @@ def test_an_answer_whose_input_was_not_recorded_is_left_out(run):
     """(a restarted recorder can come in between an input and the learner's answer to it)"""
     recorded = load_run(run)
     keep = recorded.ticks != 100
-    recorded.ticks, recorded.t, recorded.x, recorded.modes = (recorded.ticks[keep], recorded.t[keep],
-                                                              recorded.x[keep], recorded.modes[keep])
+    recorded.ticks, recorded.runs, recorded.t, recorded.x, recorded.modes = (
+        recorded.ticks[keep], recorded.runs[keep], recorded.t[keep], recorded.x[keep], recorded.modes[keep])
     inputs, answers = recorded.answered("l")
     assert len(answers) == TICKS - 1 and 99 not in answers
     assert np.array_equal(recorded.ticks[inputs], recorded.live["l"].ticks[answers])

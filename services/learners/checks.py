@@ -118,11 +118,50 @@ def check_seeded_determinism(make: Factory) -> None:
     assert_same_predictions(trained(make, 200, seed=4), trained(make, 200, seed=4))
 
 
+BATCHES = (1, 2, 7, 40, 100)  # rows per learn_many call in check_learn_many_matches_learn_one
+
+
 def check_learn_many_matches_learn_one(make: Factory) -> None:
-    one, many = trained(make, 120), make()
-    many.learn_many(*smooth_task(120))
-    assert_same_predictions(one, many, exact=False)
-    assert many.n_learned == one.n_learned == 120
+    """learn_many of a stream in batches of 1 to 100 rows leaves a learner as learn_one of each row does,
+    after every batch: the same answers (to 1e-9) and the same bookkeeping (n_learned, size, the taught
+    range, the inputs shown and the taught mean that fading uses). Every learner's two paths differ: knn
+    and lwpr have a batch path of their own; gp and sogp the base class's loop, whose bookkeeping is
+    updated once for the batch (a `_learn_one` reading it would find it lagging); per-output hands each
+    part its column (the parts' batch paths). The stream keeps going beyond what was shown, so every
+    batch widens the ranges."""
+    xs, ys = smooth_task(sum(BATCHES), seed=2)
+    order = np.argsort(np.abs(xs).max(1))
+    xs, ys = xs[order], ys[order]
+    one, many = make(), make()
+    start = 0
+    for size in BATCHES:
+        rows = slice(start, start + size)
+        for x, y in zip(xs[rows], ys[rows]):
+            one.learn_one(x, y)
+        many.learn_many(xs[rows], ys[rows])
+        start += size
+        assert_same_learning(one, many, f"{start} rows learned, the last {size} by one learn_many")
+
+
+def bookkeeping(model: Learner) -> dict[str, np.ndarray]:
+    """What the base class keeps of everything learned, by name."""
+    return {"n_learned": np.array(model.n_learned), "size": np.array(model.size),
+            "taught range": np.concatenate([model._taught.low, model._taught.high]),
+            "inputs shown": np.concatenate([model._shown.low, model._shown.high]),
+            "taught mean": model._taught_mean}
+
+
+def assert_same_learning(one: Learner, many: Learner, when: str) -> None:
+    """`many` (taught by learn_many) keeps what `one` (by learn_one) keeps and answers as it does."""
+    kept = bookkeeping(many)
+    for name, expected in bookkeeping(one).items():
+        got = kept[name]
+        same = np.allclose(got, expected, rtol=0.0, atol=1e-12) if name == "taught mean" else \
+            np.array_equal(got, expected)
+        assert same, f"{when}: learn_many's {name} is {got.tolist()}, learn_one's {expected.tolist()}"
+    pa, pb = one.predict_many(probe_inputs()), many.predict_many(probe_inputs())
+    gap = max(np.max(np.abs(pa.y - pb.y)), np.max(np.abs(pa.confidence - pb.confidence)))
+    assert gap <= 1e-9, f"{when}: learn_many's answers differ from learn_one's by up to {gap:.3g}"
 
 
 def check_memory_bounded(make: Factory) -> None:
@@ -316,12 +355,9 @@ def assert_rejected(call: Callable[[], object], message: str | None = None) -> N
     raise AssertionError("bad input was accepted")
 
 
-def assert_same_predictions(a: Learner, b: Learner, exact: bool = True) -> None:
+def assert_same_predictions(a: Learner, b: Learner) -> None:
     pa, pb = a.predict_many(probe_inputs()), b.predict_many(probe_inputs())
-    if exact:
-        assert np.array_equal(pa.y, pb.y) and np.array_equal(pa.confidence, pb.confidence), "predictions differ"
-    else:
-        assert np.allclose(pa.y, pb.y, atol=1e-9) and np.allclose(pa.confidence, pb.confidence, atol=1e-9)
+    assert np.array_equal(pa.y, pb.y) and np.array_equal(pa.confidence, pb.confidence), "predictions differ"
 
 
 ALL_CHECKS = [

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Learner, Prediction, Predictions, as_vector
+from .base import Learner, Prediction, Predictions, as_matrix, as_vector
 from .registry import LEARNERS, make_learner, register
 
 
@@ -31,9 +31,15 @@ class PerOutput(Learner):
             self._parts[i].learn_one(x, y[i:i + 1])
         self._n_learned += 1
 
-    def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+    def learn_many(self, xs, ys) -> None:
+        """Each part learns its output's column by its own batch path. As in learn_one, the taught ranges,
+        the inputs shown and the taught mean are the parts' (they hold and fade their own answers); this
+        one's stay unlearned, as a pair learned one at a time leaves them."""
+        xs = as_matrix(xs, self.n_in, "inputs")
+        ys = as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0])
         for i, part in enumerate(self._parts):
-            part.learn_one(x, y[i:i + 1])
+            part.learn_many(xs, ys[:, i:i + 1])
+        self._n_learned += xs.shape[0]
 
     def predict_one(self, x) -> Prediction:
         x = as_vector(x, self.n_in, "inputs")

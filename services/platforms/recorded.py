@@ -1,12 +1,15 @@
 """A recorded run played back as a platform (`dogged play`): each tick's input is the next one recorded,
 whatever is commanded, so a new learner, arbitrator or teacher meets real experience with everything
-else live. Its spaces are the recorded ones. Commands are clipped and reported, and change nothing."""
+else live. Every recorded input is played, in the order recorded, those of each run of a platform that
+restarted (counting its ticks from 1 again) in turn. Its spaces are the recorded ones. Commands are
+clipped and reported, and change nothing."""
 from __future__ import annotations
 
 import numpy as np
 
 from bus_schema.spaces import Spaces
 from services.recording.reader import iter_samples, read_metadata, spaces_in
+from services.recording.restarts import runs_of_inputs
 
 
 class RecordedPlatform:
@@ -18,16 +21,12 @@ class RecordedPlatform:
             raise ValueError(f"run: {run} holds no spaces of instance {instance!r}")
         self.spaces = Spaces.from_dict(spaces)
         key = f"dl/{instance}/input"
-        inputs = {}
-        for sample in iter_samples(run, {key}):
-            msg = sample.decoded()
-            inputs[msg.tick] = (msg.stamp, msg.x)
+        inputs = [(sample.decoded(), sample.log_ns) for sample in iter_samples(run, {key})]
         if not inputs:
             raise ValueError(f"run: {run} holds no inputs of instance {instance!r}")
-        ticks = sorted(inputs)
-        self.x = np.array([inputs[t][1] for t in ticks])
-        stamps = np.array([inputs[t][0] for t in ticks])
-        self.recorded_hz = float(1.0 / np.median(np.diff(stamps))) if len(stamps) > 1 else 30.0
+        self.x = np.array([msg.x for msg, _ in inputs])
+        runs = runs_of_inputs([msg.tick for msg, _ in inputs], [log_ns for _, log_ns in inputs])
+        self.recorded_hz = _rate(np.array([msg.stamp for msg, _ in inputs]), runs)
         self.loop, self._i = bool(loop), 0
         self.reset(seed)
 
@@ -60,3 +59,9 @@ class RecordedPlatform:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _rate(stamps: np.ndarray, runs: np.ndarray) -> float:
+    """Inputs per second of the platform: the median step between inputs of one run (30 if none)."""
+    steps = np.diff(stamps)[runs[1:] == runs[:-1]]
+    return float(1.0 / np.median(steps)) if len(steps) else 30.0

@@ -40,7 +40,7 @@ def schedule(run: RecordedRun, live: str | None = None) -> np.ndarray:
     """Per recorded input, how many pairs are learned before it is answered: the pairs of earlier ticks,
     or, given a live learner, what it had learned when it answered that tick (carried over the ticks it
     did not answer; before its first answer, no more than it had then)."""
-    counts = np.searchsorted(np.sort(run.pair_ticks), run.ticks, side="left")  # pairs of earlier ticks
+    counts = run.pairs_before()
     if live in run.live:
         inputs, answers = run.answered(live)
         learned = run.live[live].learned[answers]
