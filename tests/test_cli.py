@@ -1,5 +1,6 @@
 """`dogged`'s global flags (--connect, --profile, --security, --identity) mean the same before the verb and
 after it, in both orders the README shows (issue 30): parsed by the real parsers, nothing started."""
+import os
 import subprocess
 import sys
 
@@ -17,10 +18,16 @@ ORDERS = ("flags before the verb", "flags after it")
 
 
 @pytest.fixture(autouse=True)
-def environment_restored(monkeypatch):
-    """--security and --identity set $DOGGED_SECURITY and $DOGGED_IDENTITY for the process."""
+def environment_restored():
+    """--security and --identity set $DOGGED_SECURITY and $DOGGED_IDENTITY for the process: each test starts
+    without them and leaves the environment as it found it (monkeypatch.delenv of an absent variable
+    restores nothing, and every later test's bus config read the certificates these tests name)."""
+    saved = dict(os.environ)
     for name in ("DOGGED_SECURITY", "DOGGED_IDENTITY", "DOGGED_CONNECT"):
-        monkeypatch.delenv(name, raising=False)
+        os.environ.pop(name, None)
+    yield
+    os.environ.clear()
+    os.environ.update(saved)
 
 
 def in_order(order: str, verb: list[str], own: list[str], flags: list[str]) -> list[str]:
