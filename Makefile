@@ -31,4 +31,4 @@ bench: $(STAMP)
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b --quick || exit 1; done
 
 clean:
-	rm -rf $(VENV) runs .pytest_cache
+	rm -rf $(VENV) runs deploy/runs .pytest_cache

@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import pytest
 
 from services.supervisor.profile import ProfileError, load_profile
@@ -54,8 +56,26 @@ LEARNERS = ("[services.l]\nbox='learner'\n[services.k]\nbox='learner'\nargs=['--
 def test_every_learner_keeps_its_state_unless_the_profile_says_not(tmp_path, head, state):
     p = load_profile(write(tmp_path, head + LEARNERS))
     args = {s.name: p.service_args(s) for s in p.services}
-    assert args["l"] == (() if state is None else ("--state-dir", state))
-    assert args["k"] == ("--state-dir", "own") and args["t"] == ()
+    assert args["l"] == (() if state is None else ("--state-dir", str(tmp_path / state)))
+    assert args["k"] == ("--state-dir", str(tmp_path / "own")) and args["t"] == ()
+
+
+def test_state_logs_and_recordings_are_beside_the_profile_wherever_up_is_run(tmp_path, monkeypatch):
+    profile_file = write(tmp_path, "[profile]\nname='p'\n" + LEARNERS)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    p = load_profile(Path("..") / profile_file.name)
+    args = {s.name: p.service_args(s) for s in p.services}
+    assert p.log_dir == tmp_path / "runs/p/logs" and p.state_dir == tmp_path / "runs/p/state"
+    assert args["l"][-1] == str(tmp_path / "runs/p/state") and args["k"][-1] == str(tmp_path / "own")
+    assert args["recorder"][args["recorder"].index("--out") + 1].startswith(str(tmp_path / "runs/p/recordings/"))
+
+
+def test_up_says_where_state_logs_and_recordings_go(tmp_path):
+    p = load_profile(write(tmp_path, "[profile]\nname='p'\nrecord=false\n" + LEARNERS))
+    assert p.where_things_go() == (f"state: {tmp_path}/runs/p/state\nlogs: {tmp_path}/runs/p/logs\n"
+                                   "recordings: not recorded")
 
 
 def test_state_dir_must_be_a_string(tmp_path):

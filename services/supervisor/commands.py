@@ -39,6 +39,7 @@ def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False
         print(f"dogged up: {where}: set zenoh.security to a `dogged certs` directory (mutual TLS and access "
               f"control), or say --insecure", file=sys.stderr)
         return 2
+    print(profile.where_things_go(), flush=True)
     return Supervisor(profile, echo).run()
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import time
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from bus_schema import check_name
@@ -62,6 +62,13 @@ class Profile:
         if spec.box == "learner" and self.state_dir is not None and "--state-dir" not in spec.args:
             return (*spec.args, "--state-dir", str(self.state_dir))
         return spec.args
+
+    def where_things_go(self) -> str:
+        """Where this profile keeps its learners' state, its logs and its recordings, for a person to read."""
+        recorder = [s for s in self.services if s.box == "recorder"]
+        recordings = _arg(recorder[0], "--out", "(the recorder's own default)") if recorder else "not recorded"
+        state = self.state_dir or "not kept (state_dir = \"\")"
+        return f"state: {state}\nlogs: {self.log_dir}\nrecordings: {recordings}"
 
     def identity(self, spec: ServiceSpec) -> str:
         """The certificate a service of this profile shows: <role>.<service name>."""
@@ -137,15 +144,17 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
         check_name("profile", name), check_name("instance", instance)
     except ValueError as err:
         raise ProfileError(f"profile: {err}") from None
-    log_dir = Path(_get(head, "log_dir", str, "profile", f"runs/{name}/logs"))
+    base = path.resolve().parent  # relative paths in a profile are the profile file's, wherever `up` is run
+    log_dir = base / _get(head, "log_dir", str, "profile", f"runs/{name}/logs")
     state_dir = _get(head, "state_dir", str, "profile", str(log_dir.parent / "state"))  # "": no state kept
     low_latency = _get(head, "low_latency", bool, "profile", False)
     router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
     if not isinstance(services, dict) or not services:
         raise ProfileError("services: at least one [services.<name>] table is required")
-    specs = tuple(_service(n, t if isinstance(t, dict) else {}, instance, f"services.{n}") for n, t in services.items())
-    specs = _with_recorder(specs, head, instance, log_dir)
+    specs = tuple(_with_state_dir_under(_service(n, t if isinstance(t, dict) else {}, instance, f"services.{n}"), base)
+                  for n, t in services.items())
+    specs = _with_recorder(specs, head, instance, log_dir, base)
     names = {s.name for s in specs}
     for spec in specs:
         for other in spec.after:
@@ -162,7 +171,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
         raise ProfileError("zenoh.also_listen: expected a list of endpoints like quic/10.0.0.1:7447, "
                            f"got {also_listen!r}")
     profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None,
-                      Path(state_dir) if state_dir else None, upstream=join, also_listen=tuple(also_listen))
+                      base / state_dir if state_dir else None, upstream=join, also_listen=tuple(also_listen))
     if check_security:
         _check_security(profile)
     return profile
@@ -191,12 +200,21 @@ HEAD_FIELDS = ("name", "instance", "log_dir", "state_dir", "low_latency", "recor
                "record_rotate_min")
 
 
-def _with_recorder(specs: tuple[ServiceSpec, ...], head: dict, instance: str, log_dir: Path) -> tuple:
+def _with_state_dir_under(spec: ServiceSpec, base: Path) -> ServiceSpec:
+    """The service with a relative `--state-dir DIR` in its args made `base`/DIR."""
+    args = list(spec.args)
+    for i in range(len(args) - 1):
+        if args[i] == "--state-dir":
+            args[i + 1] = str(base / args[i + 1])
+    return replace(spec, args=tuple(args))
+
+
+def _with_recorder(specs: tuple[ServiceSpec, ...], head: dict, instance: str, log_dir: Path, base: Path) -> tuple:
     """The profile's services and, unless `record = false` or the profile runs a recorder of its own, a
     recorder of every instance and robot they use, into <record_dir>/<the time of `up`>/ (first, so the
     run is recorded from its start)."""
     record = _get(head, "record", bool, "profile", True)
-    folder = Path(_get(head, "record_dir", str, "profile", str(log_dir.parent / "recordings")))
+    folder = base / _get(head, "record_dir", str, "profile", str(log_dir.parent / "recordings"))
     rotate_mb = _get(head, "record_rotate_mb", (int, float), "profile", 512)
     rotate_min = _get(head, "record_rotate_min", (int, float), "profile", 30)
     if rotate_mb <= 0 or rotate_min <= 0:
