@@ -2,9 +2,11 @@
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 STAMP := $(VENV)/.installed
-CHROMIUM := /usr/bin/chromium
+# the page's tests drive this chromium; root installs Debian's here, a user without it has those tests skipped
+export DOGGED_CHROMIUM ?= /usr/bin/chromium
+USER_ID ?= $(shell id -u)
 
-.PHONY: demo test bench clean
+.PHONY: demo test chromium bench clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "dogged needs Python 3.11 (pybullet 3.2.7 ships wheels for 3.11 only); set PYTHON=/path/to/python3.11")'
@@ -16,16 +18,19 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/dogged demo
 
-# the page's tests drive Debian's chromium (Playwright, with no browser download of its own)
-$(CHROMIUM):
-	@if [ "$$(id -u)" = 0 ]; then \
+# the page's tests drive Debian's chromium (Playwright, with no browser download of its own): root installs
+# it at /usr/bin/chromium; anyone else (or another DOGGED_CHROMIUM) without it runs the rest, and pytest
+# lists the page's tests as skipped with the command that installs it
+chromium:
+	@if [ -e "$(DOGGED_CHROMIUM)" ]; then :; \
+	elif [ "$(USER_ID)" = 0 ] && [ "$(DOGGED_CHROMIUM)" = /usr/bin/chromium ]; then \
 		apt-get install -y -qq --no-install-recommends chromium >/dev/null 2>&1 || \
 		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null); \
-	else echo "the page's tests need Debian's chromium: sudo apt-get install chromium" >&2; exit 1; fi
+	else echo "no chromium at $(DOGGED_CHROMIUM): the page's tests will be skipped; to run them: sudo apt-get install chromium" >&2; fi
 
-test: $(STAMP) $(CHROMIUM)
+test: $(STAMP) chromium
 	$(VENV)/bin/ruff check .
-	$(VENV)/bin/pytest -q
+	$(VENV)/bin/pytest -q -rs
 
 bench: $(STAMP)
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b --quick || exit 1; done

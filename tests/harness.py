@@ -9,6 +9,7 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
 import zenoh
 
 from bus_schema import EVERY_STATUS, Status, decode
@@ -16,6 +17,7 @@ from services import waiting
 from services.bus.config import zenoh_config
 from services.bus.publishers import wait_matching
 from services.supervisor.process import dump_stacks_then_kill
+from services.ui.headless import missing_chromium
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -32,6 +34,9 @@ args = ["--learner", "lwpr"]
 [services.arbitrator]
 box = "arbitrator"
 """
+
+# the page's tests: skipped, saying what to install, where there is no chromium (make test as a user)
+needs_chromium = pytest.mark.skipif(missing_chromium() is not None, reason=str(missing_chromium()))
 
 
 def wait_until(condition, timeout: float, what: str = "condition", poll: float = 0.05):

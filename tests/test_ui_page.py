@@ -11,7 +11,9 @@ import pytest
 from bus_schema import TrainingPair, decode
 from services.demo.page import start_ballseek_with_page, teach_click_to_bus
 from services.ui.headless import open_page
-from tests.harness import Probe, free_port, wait_until
+from tests.harness import Probe, free_port, needs_chromium, wait_until
+
+pytestmark = needs_chromium
 
 
 # the page's sound, heard as it is made: headless chromium runs a real AudioContext (with no speaker) and

@@ -10,7 +10,9 @@ from services.demo.live import decoded
 from services.demo.page import KeyboardPerson, PageStage, start_ballseek_with_page
 from services.experiments import ballseek_protocol as protocol
 from services.ui.headless import open_page
-from tests.harness import free_port
+from tests.harness import free_port, needs_chromium
+
+pytestmark = needs_chromium
 
 RATE_HZ = 15.0  # deploy/ballseek.toml's
 TEACH_S, EPISODES, EPISODE_S = 60.0, 10, 30.0  # as the demo's pink episodes
