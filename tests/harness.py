@@ -1,6 +1,7 @@
 """Real processes on a real router on loopback, for integration tests and benchmarks."""
 from __future__ import annotations
 
+import collections
 import os
 import socket
 import subprocess
@@ -83,6 +84,7 @@ class Probe:
     def __init__(self, endpoint: str):
         self.session = zenoh.open(zenoh_config(connect=[endpoint], mode="client"))
         self.status: dict[str, Status] = {}
+        self.reports: collections.Counter = collections.Counter()  # statuses heard, per member
         self.samples: dict[str, list] = {}
         self._lock = threading.Lock()
         self.session.declare_subscriber(EVERY_STATUS, self._on_status)
@@ -94,6 +96,7 @@ class Probe:
             return
         with self._lock:
             self.status[f"{msg.role}/{msg.name}"] = msg
+            self.reports[f"{msg.role}/{msg.name}"] += 1
 
     def record(self, key: str):
         """Keep every payload seen on `key` (list of (key, bytes, arrival time))."""
@@ -114,6 +117,14 @@ class Probe:
 
     def wait_for(self, condition, timeout: float, what: str = "condition"):
         return wait_until(condition, timeout, what)
+
+    def wait_for_fresh_status(self, *members: str, timeout: float = 15.0) -> None:
+        """Until each member's status is heard twice more: the first may have been on its way already,
+        the second was made after this call, so its counters hold everything done before it."""
+        with self._lock:
+            wanted = {m: self.reports[m] + 2 for m in members}
+        wait_until(lambda: all(self.reports[m] >= n for m, n in wanted.items()), timeout,
+                   f"a fresh status of {', '.join(members)}")
 
     def put(self, key: str, payload: bytes) -> None:
         # lossless on purpose: a test counts what arrives, so the sender must not drop under congestion

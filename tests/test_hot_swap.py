@@ -1,7 +1,7 @@
 """Hot-swap learners during a 200 Hz run: no tick unanswered, no training pair lost (counted)."""
 import json
-import time
 
+from services.waiting import poll
 from tests.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port
 from tests.test_supervisor import ps, wait
 
@@ -45,7 +45,10 @@ def test_swap_learners_during_200hz_run(tmp_path):
         assert "restored from the old one's snapshot" in again.stdout, again.stdout
         assert set(ps(endpoint)) == {"router", "recorder", "platform", "teacher", "learner-s3", "arbitrator"}
         wait(lambda: summary.exists(), 60, "the platform to finish its ticks")
-        time.sleep(2.5)  # two status periods: the final counters are out
+        probe.wait_for_fresh_status("arbitrator/arbitrator")  # its final counters
+        published = probe.state("arbitrator/arbitrator", "seq")
+        serving = "learner/learner-s3"
+        poll(lambda: probe.counter(serving, "pairs") >= published, 15)  # (if never, the asserts below say so)
         counts = json.loads(summary.read_text())
         assert counts["ticks"] == TICKS
         print(f"unanswered ticks before the loop was up (tick {loop_up_tick}): {counts['unanswered']}, "
@@ -53,12 +56,10 @@ def test_swap_learners_during_200hz_run(tmp_path):
         # the latest unanswered ticks: past 1,000 start-up misses, the first 1,000 alone would hide a later one
         assert max(counts["last_unanswered"], default=0) < loop_up_tick, counts
         assert probe.counter("arbitrator/arbitrator", "swaps") == 3
-        published = probe.state("arbitrator/arbitrator", "seq")
         assert published == probe.counter("arbitrator/arbitrator", "train_pairs") > 0.9 * TICKS
         asked = "learner/learner-s2"  # k=3 asked of a k=5 knn: built as asked, taught the history
         assert probe.state(asked, "params")["k"] == 3, probe.state(asked, "params")
         assert probe.counter(asked, "warmed_by_snapshot", 0) == 0
-        serving = "learner/learner-s3"
         assert probe.state(serving, "params")["k"] == 3 and probe.counter(serving, "warmed_by_snapshot") == 1
         assert probe.counter(serving, "warmed") > 300
         assert probe.counter(serving, "seq") == published

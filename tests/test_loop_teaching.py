@@ -1,7 +1,6 @@
 """A teacher is switched on, then off, and the student reproduces the taught mapping (real processes)."""
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -52,6 +51,16 @@ def test_teach_on_then_off_student_reproduces(router, tmp_path, learner):
         assert stop(*procs) == [0, 0, 0, 0]
 
 
+def first_tick_line(watcher: subprocess.Popen) -> str:
+    """What `dogged watch` printed up to and with its first line about a command (its first mode)."""
+    seen = []
+    for line in watcher.stdout:
+        seen.append(line)
+        if "tick" in line:
+            return "".join(seen)
+    raise AssertionError(f"dogged watch ended having printed only {''.join(seen)!r}")
+
+
 def test_watch_shows_the_robots_mode_as_a_person_switches_teaching(router, tmp_path):
     """`dogged watch` is the robot's ears in a terminal: untaught it asks (green), taught it is
     red, and each change is one line; a malformed command is rejected, not shown."""
@@ -68,11 +77,12 @@ def test_watch_shows_the_robots_mode_as_a_person_switches_teaching(router, tmp_p
         watcher = subprocess.Popen([sys.executable, "-m", "services.cli", "--connect", router, "watch", "--seconds",
                                     "8"],
                                    cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(2.5)
+        first = first_tick_line(watcher)  # subscribed, and it has shown the robot's mode
         probe.put("dl/main/command", b"\x81\xa1v\x01")  # a map with a version and nothing else
         assert dogged_ok("teach", "on", endpoint=router).returncode == 0
-        time.sleep(2.0)
-        out, err = watcher.communicate(timeout=30)
+        out = first + watcher.stdout.read()  # (the rest of its 8 s; read from the same buffer as the first)
+        err = watcher.stderr.read()
+        watcher.wait(30)
     finally:
         probe.close()
         assert stop(*procs) == [0, 0, 0, 0]

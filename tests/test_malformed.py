@@ -1,10 +1,10 @@
 """Malformed payloads on every key are rejected and counted, and the loop keeps its rate."""
-import time
 
 import msgpack
 import numpy as np
 
 from bus_schema import Input, TeachSwitch, TrainingPair, encode
+from services.waiting import poll
 from tests.harness import Probe, dogged, stop
 
 
@@ -35,21 +35,26 @@ def test_malformed_payloads_rejected_counted_loop_keeps_rate(router, tmp_path):
         keys = ["dl/main/input", "dl/main/proposal/teacher/sine", "dl/main/proposal/learner/learner",
                 "dl/main/proposal/stranger/x", "dl/main/command", "dl/main/train", "dl/main/teach",
                 "dl/main/arbitrator/select"]
-        time.sleep(1.5)
-        before = {m: probe.counter(m, "rejected") for m in probe.status}
+        n = len(bad)
+        expected = {"platform/platform": n,              # command
+                    "teacher/sine": 2 * n,              # input, teach
+                    "learner/learner": 2 * n,           # input, train
+                    "arbitrator/arbitrator": 5 * n}     # input, 3 proposal keys, select
+        probe.wait_for(lambda: expected.keys() <= probe.status.keys(), 10, "every service's status")
+        before = {m: probe.counter(m, "rejected") for m in expected}
         ticks0, commands0 = probe.counter("platform/platform", "inputs"), probe.counter("platform/platform", "commands")
         for key in keys:
             for payload in bad:
                 probe.put(key, payload)
-        time.sleep(2.5)  # two status periods
+
+        def rejected_since() -> dict:
+            return {m: probe.counter(m, "rejected") - before[m] for m in before}
+        # every rejection counted, over enough ticks (1.5 s at 100 Hz) to tell whether the loop kept its rate
+        poll(lambda: rejected_since() == expected and probe.counter("platform/platform", "inputs") - ticks0 > 150, 15)
         ticks = probe.counter("platform/platform", "inputs") - ticks0
         answered = probe.counter("platform/platform", "commands") - commands0
-        got = {m: probe.counter(m, "rejected") - before[m] for m in before}
-        n = len(bad)
-        assert got == {"platform/platform": n,              # command
-                       "teacher/sine": 2 * n,              # input, teach
-                       "learner/learner": 2 * n,           # input, train
-                       "arbitrator/arbitrator": 5 * n}, got  # input, 3 proposal keys, select
+        got = rejected_since()
+        assert got == expected, got
         by_key = probe.state("arbitrator/arbitrator", "rejected_by_key")
         assert by_key["dl/main/proposal/stranger/x"] == n
         assert ticks > 150 and answered >= ticks - 2, (ticks, answered)

@@ -50,6 +50,15 @@ def last_status(run, member: str) -> dict:
     return found[-1].counters
 
 
+def recording_for(folder) -> float:
+    """How many seconds ago the first sample in the recorder's one file (in progress) was logged; 0 if none."""
+    runs = list(folder.iterdir()) if folder.is_dir() else []
+    if len(runs) != 1 or not list(runs[0].glob("*.mcap")):
+        return 0.0
+    first = next(iter_samples(runs[0], truncated=[]), None)
+    return (time.time_ns() - first.log_ns) / 1e9 if first else 0.0
+
+
 def test_a_recorded_run_reads_back_counts_match_and_replay_reproduces_the_learner(tmp_path):
     endpoint, sup = up(tmp_path)
     probe = Probe(endpoint)
@@ -61,7 +70,8 @@ def test_a_recorded_run_reads_back_counts_match_and_replay_reproduces_the_learne
         probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "mode_student") >= 300, 60, "the student driving")
         os.kill(ps(endpoint)["platform"]["pid"], signal.SIGTERM)  # the loop stops; its counts are final
         wait(lambda: (tmp_path / "summary.json").exists(), 30, "the platform's summary")
-        time.sleep(2.5)  # two status periods: every service's final counters are out, and recorded
+        # every service's final counters out, and recorded
+        probe.wait_for_fresh_status("arbitrator/arbitrator", "learner/learner", "teacher/teacher")
         assert dogged_ok("down", endpoint=endpoint).returncode == 0
         assert sup.wait(30) == 0
     finally:
@@ -111,7 +121,7 @@ def test_a_sigkilled_recorder_loses_at_most_its_last_second_and_comes_back(tmp_p
     probe = Probe(endpoint)
     try:
         wait(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()), 90, "all ready")
-        time.sleep(5)
+        wait(lambda: recording_for(tmp_path / "rec") > 2.0, 30, "the recorder's file holding 2 s of the run")
         pid = ps(endpoint)["recorder"]["pid"]
         [run] = list((tmp_path / "rec").iterdir())
         [path] = run_files(run)

@@ -3,7 +3,6 @@ rejected every input, and truncated its --state-dir pair log to 0 bytes. Now ans
 not trusted, and a pair log of other dimensions is refused and kept byte for byte."""
 import logging
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from bus_schema.spaces import Box, Spaces
 from services.boxes.common import fetch_spaces
 from services.bus.config import zenoh_config
 from services.pairlog import PairLog, PairLogError
+from tests.harness import wait_until
 
 
 def saved_log(path, n=5):
@@ -46,6 +46,14 @@ def test_garbage_inside_a_pair_log_is_refused_and_kept(tmp_path):
     assert path.read_bytes() == before
 
 
+def wait_answerers(session: zenoh.Session, key: str, count: int) -> None:
+    """Until exactly `count` queryables answer on `key`: declared and routed, or gone."""
+    def answering() -> int:
+        return sum(r.ok is not None for r in session.get(key, timeout=1.0, target=zenoh.QueryTarget.ALL,
+                                                         consolidation=zenoh.ConsolidationMode.NONE))
+    wait_until(lambda: answering() == count, 10, f"{count} answerers on {key}")
+
+
 def answer_spaces(endpoint, keys, spaces: Spaces, stop: threading.Event):
     payload = encode(SpacesMessage(spaces.to_dict()))
     with zenoh.open(zenoh_config(connect=[endpoint], mode="client")) as session:
@@ -65,13 +73,13 @@ def test_spaces_that_two_answerers_disagree_on_are_not_trusted(router, caplog):
         t.start()
     log = logging.getLogger("test.spaces")
     with zenoh.open(zenoh_config(connect=[router], mode="client")) as session:
-        time.sleep(1.0)  # both queryables declared and routed
+        wait_answerers(session, keys.spaces, 2)
         with caplog.at_level("ERROR"):
             assert fetch_spaces(session, keys, False, log, timeout=2.5) is None
         assert "disagree (18 -> 2; 3 -> 2)" in caplog.text
         stops[1].set()  # the stranger leaves: the platform's answer stands alone
         threads[1].join(5)
-        time.sleep(0.5)
+        wait_answerers(session, keys.spaces, 1)
         got = fetch_spaces(session, keys, False, log, timeout=5.0)
         assert got is not None and got.input.dims == 18
     stops[0].set()
@@ -101,12 +109,12 @@ def test_a_learner_trusts_no_answer_that_a_second_answerer_contradicts(router):
     with zenoh.open(zenoh_config(connect=[router], mode="client")) as session:
         n = node()
         n.session, n.query = session, LearnerNode.query.__get__(n)
-        time.sleep(1.0)
+        wait_answerers(session, keys.train_recent, 2)
         assert n.query(keys.train_recent, PairBatch, "from=5;to=5", timeout=2.0) is None
         assert n.rejects.total == 1
         stops[1].set()
         threads[1].join(5)
-        time.sleep(0.5)
+        wait_answerers(session, keys.train_recent, 1)
         got = n.query(keys.train_recent, PairBatch, "from=5;to=5", timeout=2.0)
         assert got is not None and got.x.tolist() == [[0.0, 0.0]] and n.rejects.total == 1
     stops[0].set()

@@ -8,12 +8,13 @@ import time
 import numpy as np
 import pytest
 
-from bus_schema import TrainingPair, decode
+from bus_schema import Proposal, TrainingPair, decode
 from services.demo.page import start_ballseek_with_page, teach_click_to_bus
 from services.ui.headless import open_page
 from tests.harness import Probe, free_port, needs_chromium, wait_until
 
 pytestmark = needs_chromium
+UNSURE_BELOW = 0.25  # deploy/ballseek.toml's arbitrator's (its default): below, the student asks
 
 
 # the page's sound, heard as it is made: headless chromium runs a real AudioContext (with no speaker) and
@@ -60,6 +61,13 @@ def ears(page) -> str:
     return page.get_attribute("#ears", "data-mode")
 
 
+def learner_sure(run, answers: int = 30) -> bool:
+    """The learner's last `answers` (2 s at 15 Hz) all sure enough for the student to drive."""
+    key = f"{run.keys.prefix}/proposal/learner/*"
+    last = run.messages(Proposal, key, max(0, len(run.recorded[key]) - answers))
+    return len(last) == answers and all(p.confidence >= UNSURE_BELOW for p in last)
+
+
 def test_page_loads_and_shows_the_services_and_the_robot_asking(live):
     run, page, _, run_dir, _ = live
     assert "instance main" in page.inner_text("#where")
@@ -92,14 +100,12 @@ def test_teach_turns_the_ears_to_teacher_within_200_ms_and_the_camera_moves(live
     assert np.median(latencies) < 200
     wait_until(lambda: ears(page) == "teacher", 2, "the page's ears red")
     before = page.locator("#camera").screenshot()
-    time.sleep(2.0)
-    after = page.locator("#camera").screenshot()
-    assert before != after, "the camera image changes while the robot walks"
+    wait_until(lambda: page.locator("#camera").screenshot() != before, 5, "the camera image to change")
     frames = page.evaluate("window.doggedStats.frames.length")
     assert frames >= 20, f"{frames} frames shown"
     shot(page, run_dir, "teacher")
     # teach until the student is sure of this arena, then let it drive
-    time.sleep(25.0)
+    wait_until(lambda: learner_sure(run), 90, "the learner sure of the last 2 s the teacher drove")
     page.click('button.toggle[data-teacher="seeker"]')
     wait_until(lambda: ears(page) in ("student", "unsure"), 5, "the teacher off")
     run.reset_arena(1, {"pink": [1.2, 0.4]})
