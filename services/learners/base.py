@@ -232,8 +232,9 @@ class Learner:
 
     @property
     def upkeep_under_way(self) -> int:
-        """Jobs of upkeep (the GP's fits) running or done on another thread and not yet applied: 0 once the
-        answers reflect everything taught (served live; offline always 0)."""
+        """Jobs of upkeep (the GP's fits) still running on another thread: 0 once every answer from now on
+        reflects everything taught (a finished job is applied at the next call that needs it; served live;
+        offline always 0)."""
         return 0
 
     @property
