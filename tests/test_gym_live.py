@@ -2,10 +2,10 @@
 and the arbitrator as real processes; a person switches the teacher with `dogged teach`; the student is
 judged alone on the episodes the platform reports on dl/main/episode. Scores: 0 a random policy's mean
 return, 1 the teacher's (services.experiments.gym.baseline)."""
+import time
+
 import numpy as np
 import pytest
-
-import time
 
 from bus_schema import Episode, InstanceKeys, decode
 from services.demo.live import caught_up
