@@ -177,28 +177,33 @@ def test_a_swap_stops_waiting_when_the_profile_stops(tmp_path):
         sup.stop_all()
 
 
-def test_verbs_that_arrive_during_a_swap_wait_for_it(tmp_path):
-    sup = ready_learner(tmp_path, {}, ready_timeout_s=0.5)
-    answered = []
-    sup.on_control = lambda verb, query, session: answered.append(verb)
-    sup.inbox.put(("control", supervisor_key("policy", "ps"), None, None))
-    try:
-        sup.swapping = True
-        sup.turn(lambda: False, 0.3)
-        assert answered == [] and len(sup.deferred) == 1
-        sup.swapping = False
-        sup.turn(lambda: bool(answered), 2.0)
-        assert answered == ["ps"]
-    finally:
-        sup.stop_all()
-
-
 class FakeQuery:
     def __init__(self, verb: str):
         self.key_expr, self.parameters, self.replies = supervisor_key("policy", verb), zenoh.Parameters(""), []
 
     def reply(self, key, payload):
         self.replies.append(decode(ControlReply, payload, key))
+
+
+def test_verbs_that_arrive_during_a_swap_wait_for_it_but_down_does_not(tmp_path):
+    """`down` waited with the other verbs: the CLI gave up after 5 s while the profile stopped up to a
+    minute later. Now the swap gives up at once, its new learner stopped, and `ps` is told why."""
+    sup = ready_learner(tmp_path, {}, ready_timeout_s=15.0)  # the new learner is never ready
+    ps, down = FakeQuery("ps"), FakeQuery("down")
+    for query in (ps, down):
+        sup.inbox.put(("control", str(query.key_expr), query, None))
+    try:
+        started = time.monotonic()
+        reply = sup.swap(None, "learner", "knn")
+        assert time.monotonic() - started < 5.0, f"down waited for the swap: {reply.text}"
+        assert down.replies and down.replies[0].ok and "stopping profile" in down.replies[0].text
+        assert not reply.ok and "the profile is stopping" in reply.text, reply.text
+        assert "learner-s1" not in sup.procs and sup.stopping
+        assert ps.replies == [] and len(sup.deferred) == 1, "ps still waits for the swap"
+        sup.answer_deferred()
+        assert not ps.replies[0].ok and "the profile is stopping" in ps.replies[0].text
+    finally:
+        sup.stop_all()
 
 
 def test_a_flood_of_verbs_during_a_swap_is_held_up_to_a_bound_and_the_rest_answered_busy(tmp_path):

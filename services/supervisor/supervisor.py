@@ -193,7 +193,7 @@ class Supervisor:
             return ControlReply(False, f"no verb {verb[:64]!r}; verbs: {', '.join(VERBS)}", {})
         if unknown:
             return ControlReply(False, f"{verb}: unknown parameter(s) {', '.join(unknown)[:200]}", {})
-        if self.swapping:
+        if self.swapping and verb != "down":
             return ControlReply(False, f"{verb}: a hot-swap is under way and {MAX_DEFERRED} verbs wait for it; "
                                        "ask again after it", {})
         if verb == "ps":
@@ -281,13 +281,21 @@ class Supervisor:
         return False
 
     def handle_events(self, session) -> None:
-        """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order)."""
+        """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order), except
+        `down`, honoured at once: the swap then gives up and its new learner is stopped."""
         first = [self.deferred.pop(0)] if self.deferred and not self.swapping else []
         for item in itertools.chain(first, self.inbox.drain(0.0 if first else 0.05)):
-            if item[0] == "control" and self.swapping and len(self.deferred) < MAX_DEFERRED:
+            if self.swapping and held_during_swap(item) and len(self.deferred) < MAX_DEFERRED:
                 self.deferred.append(item)
             else:  # (a verb past MAX_DEFERRED during a swap is answered: busy)
                 self.on_event(item, session)
+
+    def answer_deferred(self) -> None:
+        """Verbs still held when the profile stops are told so, not left to time out."""
+        for _, key, query, _ in self.deferred:
+            verb = key.rsplit("/", 1)[-1]
+            query.reply(str(query.key_expr), encode(ControlReply(False, f"{verb}: the profile is stopping", {})))
+        self.deferred.clear()
 
     # --- the run ----------------------------------------------------------------------------
     def run(self) -> int:
@@ -321,6 +329,7 @@ class Supervisor:
             self.waiting, self.up_since = list(prof.services), time.monotonic()
             self.pump(session)  # until the profile is stopping
             log.info("stopping %s", prof.name)
+            self.answer_deferred()
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
         self.procs["router"].stop()
@@ -332,6 +341,12 @@ class Supervisor:
         else:
             log.info("stopped; no process left")
         return 0
+
+
+def held_during_swap(item: tuple) -> bool:
+    """Whether a bus event waits for a swap to end: every verb but `down`."""
+    tag, key = item[0], item[1]
+    return tag == "control" and key.rsplit("/", 1)[-1] != "down"
 
 
 def not_running_row(name: str, box: str, state: str, **fields) -> dict:
