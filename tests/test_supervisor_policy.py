@@ -44,7 +44,7 @@ class FakeCommands(Supervisor):
 
 
 def spec(name: str, **kw) -> ServiceSpec:
-    return ServiceSpec(name, kw.pop("box", "demonstrator"), "main", **kw)
+    return ServiceSpec(name, kw.pop("box", "platform"), "main", **kw)
 
 
 def test_services_start_in_the_order_after_says(tmp_path):
@@ -114,7 +114,7 @@ def test_a_service_not_ready_in_time_is_restarted_while_restarts_remain(tmp_path
 
 
 def learner(name="learner", **kw) -> ServiceSpec:
-    return spec(name, box="learner", args=("--learner", "knn", "--param=k=5", "--rate", "5"), **kw)
+    return spec(name, box="learner", args=("--learner", "knn", "--param=k=5", "--seed", "5"), **kw)
 
 
 def ready_learner(tmp_path, commands, **kw) -> FakeCommands:
@@ -238,7 +238,9 @@ def test_a_swapped_learner_keeps_the_profile_name_and_drops_every_learner_flag(t
         assert sup.profile.identity(learner("fast-sogp")) == "learner.fast-sogp"
         swapped = learner("fast-sogp-s2", stands_for="fast-sogp")
         assert sup.profile.identity(swapped) == "learner.fast-sogp"
-        assert _kept_args(("--learner", "knn", "--param=k=5", "--param", "x=1", "--warm-from=a", "--rate", "5")) == [
-            "--rate", "5"]
+        assert _kept_args(("--learner", "knn", "--param=k=5", "--param", "x=1", "--warm-from=a", "--seed", "5")) == [
+            "--seed", "5"]
+        # spelled as argparse also reads them: abbreviated, with '=' (they leaked into the new learner)
+        assert _kept_args(("--learn=knn", "--par", "k=5", "--warm", "a", "--state-dir=/s")) == ["--state-dir=/s"]
     finally:
         sup.stop_all()

@@ -23,7 +23,8 @@ def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTE
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run router`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run router", description=__doc__.splitlines()[0])
     parser.add_argument("--listen", action="append", default=None, help=f"endpoint(s), default {DEFAULT_ROUTER}")
     parser.add_argument("--connect", action="append", default=None,
@@ -32,5 +33,10 @@ def cli(argv=None) -> int:
                         help="the liveliness token that says this router is up (its supervisor's)")
     parser.add_argument("--instance", help=argparse.SUPPRESS)
     parser.add_argument("--name", help=argparse.SUPPRESS)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     args = parser.parse_args(argv)
     return main(args.listen or [DEFAULT_ROUTER], args.connect, args.token)

@@ -138,7 +138,7 @@ class Supervisor:
 
     def restart_command(self, proc: ManagedProcess) -> list[str]:
         """A teacher comes back as the person left it: switched on if it was teaching when it died."""
-        on, since = self.teaching.get(proc.spec.name, ("--on" in proc.spec.args, 0.0))
+        on, since = self.teaching.get(proc.spec.name, (proc.spec.options.on, 0.0))
         died_teaching = not on and proc.died_at - since < SWITCH_OFF_BEFORE_DEATH
         command = [arg for arg in proc.command if arg != "--on"]
         return command + ["--on"] if on or died_teaching else command
