@@ -11,13 +11,22 @@ from services.bus.config import DEFAULT_ROUTER, zenoh_config
 from services.bus.lifecycle import StopFlag, setup_logging
 
 
+CANNOT_LISTEN = "the router cannot listen on"  # what it says when it cannot start (its supervisor reads it)
+ROUTING = "routing on"  # what it says once it listens
+
+
 def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTER) -> int:
     log = setup_logging("router", "router")
     stop = StopFlag()
-    with zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router")) as session:
+    try:
+        session = zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router"))
+    except zenoh.ZError as err:  # a port another program holds, a mistyped endpoint
+        log.error("%s %s: %s", CANNOT_LISTEN, ", ".join(listen), str(err).split(" at /")[0])
+        return 2
+    with session:
         held = []  # declarations live as long as these references (a dropped token is undeclared)
         held.append(session.liveliness().declare_token(token))  # its supervisor's router_token()
-        log.info("routing on %s%s", ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
+        log.info("%s %s%s", ROUTING, ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
         while not stop:
             time.sleep(0.2)
     return 0

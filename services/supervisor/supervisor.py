@@ -23,6 +23,7 @@ from bus_schema import (EVERY_ALIVE, EVERY_STATUS, ControlReply, InstanceKeys, S
 from services.bus.config import zenoh_config
 from services.bus.inbox import Inbox
 from services.bus.lifecycle import StopFlag
+from services.boxes.router import CANNOT_LISTEN, ROUTING
 from services.bus.publishers import HOST
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
@@ -36,6 +37,7 @@ MAX_LOG_LINES = 10_000
 REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 MAX_REMOTE = 64  # services not ours kept and listed (the freshest): forged statuses under many names bloat nothing
 MAX_DEFERRED = 64  # verbs held while a swap runs; beyond, each is answered at once that a swap is under way
+ROUTER_START_S = 15.0  # the profile's router says it listens within this, or `up` fails saying why
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
@@ -298,6 +300,23 @@ class Supervisor:
         self.deferred.clear()
 
     # --- the run ----------------------------------------------------------------------------
+    def router_problem(self) -> str:
+        """"" once the profile's own router says it listens; else why it does not (its own words: a
+        port another program or another profile's router holds, a mistyped endpoint)."""
+        router = self.procs["router"]
+        end = time.monotonic() + ROUTER_START_S
+        while time.monotonic() < end:
+            if any(ROUTING in line for line in list(router.tail)):
+                return ""
+            if router.proc.poll() is not None:
+                time.sleep(0.3)  # its last lines, still on their way through the pipe
+                said = [line[line.index(CANNOT_LISTEN):] for line in list(router.tail) if CANNOT_LISTEN in line]
+                return (said[-1] if said else
+                        f"the router exited with {router.proc.returncode} (see {router.log_path})")
+            time.sleep(0.05)
+        return f"the router did not say it listens on {self.profile.router} within {ROUTER_START_S:g} s " \
+               f"(see {router.log_path})"
+
     def run(self) -> int:
         self.stop_flag = StopFlag()
         prof = self.profile
@@ -312,6 +331,11 @@ class Supervisor:
             log.info("linking to the router at %s (another machine runs it)", prof.upstream)
         self.procs["router"] = ManagedProcess(router, box_command("router", *listen), prof.log_dir, self.echo)
         self.procs["router"].start()
+        problem = self.router_problem()
+        if problem:  # its session would wait for ever, or join whichever router holds the port
+            log.error("%s: nothing started", problem)
+            self.procs["router"].stop()
+            return 1
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
             held = []  # declarations live as long as these references (a dropped token is undeclared)
