@@ -45,7 +45,7 @@ def test_demonstrator_role_from_args(tmp_path):
 
 
 LEARNERS = ("[services.l]\nbox='learner'\n[services.k]\nbox='learner'\nargs=['--state-dir','own']\n"
-            "[services.t]\nbox='demonstrator'\n")
+            "[services.t]\nbox='demonstrator'\nargs=['--teacher','sine']\n")
 
 
 @pytest.mark.parametrize("head, state", [
@@ -57,7 +57,7 @@ def test_every_learner_keeps_its_state_unless_the_profile_says_not(tmp_path, hea
     p = load_profile(write(tmp_path, head + LEARNERS))
     args = {s.name: p.service_args(s) for s in p.services}
     assert args["l"] == (() if state is None else ("--state-dir", str(tmp_path / state)))
-    assert args["k"] == ("--state-dir", str(tmp_path / "own")) and args["t"] == ()
+    assert args["k"] == ("--state-dir", str(tmp_path / "own")) and args["t"] == ("--teacher", "sine")
 
 
 def test_state_logs_and_recordings_are_beside_the_profile_wherever_up_is_run(tmp_path, monkeypatch):
@@ -76,6 +76,25 @@ def test_up_says_where_state_logs_and_recordings_go(tmp_path):
     p = load_profile(write(tmp_path, "[profile]\nname='p'\nrecord=false\n" + LEARNERS))
     assert p.where_things_go() == (f"state: {tmp_path}/runs/p/state\nlogs: {tmp_path}/runs/p/logs\n"
                                    "recordings: not recorded")
+
+
+def test_a_services_arguments_are_read_as_its_box_reads_them(tmp_path):
+    """They were read as plain strings: `--role=default` made a teacher (the supervisor waited for the
+    wrong token and stopped a healthy service) and `--state-dir=/mine` got the profile's added after it."""
+    p = load_profile(write(tmp_path, "[services.d]\nbox='demonstrator'\nargs=['--teacher','sine','--role=default']\n"
+                                     "[services.m]\nbox='learner'\nargs=['--state-dir=/mine']\n"
+                                     "[services.a]\nbox='aibo'\nargs=['--robot=rex']\n"))
+    specs = {s.name: s for s in p.services}
+    assert specs["d"].role == "default"
+    assert p.service_args(specs["m"]) == ("--state-dir=/mine",) and p.state_dir_of(specs["m"]) == Path("/mine")
+    assert specs["recorder"].options.robot == ["rex"]
+
+
+def test_arguments_a_box_refuses_stop_the_profile_at_load_naming_the_service(tmp_path):
+    with pytest.raises(ProfileError, match=r"services.l.args: learner refuses them: unrecognized arguments: --sate"):
+        load_profile(write(tmp_path, "[services.l]\nbox='learner'\nargs=['--sate-dir','x']\n"))
+    with pytest.raises(ProfileError, match=r"services.t.args: .*required: --teacher"):
+        load_profile(write(tmp_path, "[services.t]\nbox='demonstrator'\n"))
 
 
 def test_state_dir_must_be_a_string(tmp_path):

@@ -136,7 +136,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, co
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run aibo`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run aibo", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="aibo")
@@ -154,6 +155,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--summary", default=None)
     parser.add_argument("--command-from", default=None, metavar="INSTANCE", help="obey a lower chained instance")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     a = parser.parse_args(argv)
     return main(config_from_args(a), a.instance, a.name, a.robot, a.seed, a.command, a.input_mode, a.rate, a.sim_hz,
                 a.camera_hz, a.watchdog, a.max_ticks, a.gui, a.latency_log, a.summary, a.command_from)

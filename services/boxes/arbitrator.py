@@ -235,7 +235,8 @@ def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: 
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run arbitrator`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run arbitrator", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="arbitrator")
@@ -248,6 +249,11 @@ def cli(argv=None) -> int:
                              "all: every output does (Alg. 2 literally)")
     parser.add_argument("--error-threshold", type=float, default=None, help="predictive strategy (Algorithm 1)")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     args = parser.parse_args(argv)
     params = {"error_threshold": args.error_threshold} if args.error_threshold is not None else {}
     return main(config_from_args(args), args.instance, args.name, args.strategy, args.unsure_below,

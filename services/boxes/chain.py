@@ -128,7 +128,8 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run chain`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run chain", description=__doc__.splitlines()[0])
     parser.add_argument("--upper", required=True, help="the instance whose commands become inputs")
     parser.add_argument("--lower", required=True, help="the instance that takes them as its input")
@@ -144,6 +145,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--name", default="chain")
     parser.add_argument("--instance", help=argparse.SUPPRESS)
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     a = parser.parse_args(argv)
     if a.clock == "extra" and not a.extra:
         parser.error("--clock extra needs --extra INSTANCE: the stream whose samples start the lower ticks")

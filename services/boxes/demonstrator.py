@@ -101,7 +101,8 @@ def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: st
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run demonstrator`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run demonstrator", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default=None, help="this teacher's name (default: the plugin's)")
@@ -110,6 +111,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--role", choices=("teacher", "default"), default="teacher")
     parser.add_argument("--on", action="store_true", help="start switched on")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     args = parser.parse_args(argv)
     return main(config_from_args(args), args.instance, args.teacher, parse_params(args.param),
                 args.name or args.teacher, args.role, args.on)

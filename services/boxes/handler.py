@@ -43,7 +43,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, ta
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run handler`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run handler", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="handler")
@@ -53,5 +54,10 @@ def cli(argv=None) -> int:
     parser.add_argument("--distractors", choices=sorted(DISTRACTORS), default="mirroring",
                         help="which other joints move at random (mirroring: all but tail and head)")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     a = parser.parse_args(argv)
     return main(config_from_args(a), a.instance, a.name, a.robot, a.seed, not a.no_tail, a.distractors)

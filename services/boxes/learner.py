@@ -274,7 +274,8 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run learner`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run learner", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="learner")
@@ -284,6 +285,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--state-dir", default=None, help="log pairs here and replay them after a restart")
     parser.add_argument("--warm-from", default=None, help="hot-swap: take over from this learner")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     args = parser.parse_args(argv)
     if args.learner not in LEARNERS:
         parser.error(f"--learner: unknown learner {args.learner!r}; known: {', '.join(sorted(LEARNERS))}")

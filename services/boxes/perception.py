@@ -111,7 +111,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run perception`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run perception", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="perception")
@@ -123,5 +124,10 @@ def cli(argv=None) -> int:
     parser.add_argument("--output", choices=("robot", "movement"), default="robot",
                         help="the instance's output: the robot's commands, or the movement it offers (hierarchy)")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     a = parser.parse_args(argv)
     return main(config_from_args(a), a.instance, a.name, a.robot, parse_colours(a.colour), a.layout, a.output)

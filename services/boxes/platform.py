@@ -224,7 +224,8 @@ def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: s
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run platform`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run platform", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="platform")
@@ -241,6 +242,11 @@ def cli(argv=None) -> int:
     parser.add_argument("--command-from", default=None, metavar="INSTANCE",
                         help="obey this instance's commands (the lowest of a chain); default: our own")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     args = parser.parse_args(argv)
     return main(config_from_args(args), args.instance, args.platform, parse_params(args.param), args.name,
                 args.rate, args.sim_hz, args.watchdog, args.max_ticks, args.latency_log, args.summary,

@@ -198,7 +198,8 @@ def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str,
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run recorder`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run recorder", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", action="append", default=None, help="a DL instance to record (repeatable)")
     parser.add_argument("--robot", action="append", default=[], help="a robot's streams to record (repeatable)")
@@ -212,6 +213,11 @@ def cli(argv=None) -> int:
                         help="what may wait to be written (a stalled disk, a flood); past it, samples are "
                              "dropped on arrival and counted as inbox_dropped")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     a = parser.parse_args(argv)
     if a.rotate_mb <= 0 or a.rotate_min <= 0 or not 0 < a.flush_s <= 1.0:
         parser.error("--rotate-mb and --rotate-min must be > 0, --flush-s in (0, 1]")

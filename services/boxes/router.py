@@ -11,19 +11,29 @@ from services.bus.config import DEFAULT_ROUTER, zenoh_config
 from services.bus.lifecycle import StopFlag, setup_logging
 
 
+CANNOT_LISTEN = "the router cannot listen on"  # what it says when it cannot start (its supervisor reads it)
+ROUTING = "routing on"  # what it says once it listens
+
+
 def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTER) -> int:
     log = setup_logging("router", "router")
     stop = StopFlag()
-    with zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router")) as session:
+    try:
+        session = zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router"))
+    except zenoh.ZError as err:  # a port another program holds, a mistyped endpoint
+        log.error("%s %s: %s", CANNOT_LISTEN, ", ".join(listen), str(err).split(" at /")[0])
+        return 2
+    with session:
         held = []  # declarations live as long as these references (a dropped token is undeclared)
         held.append(session.liveliness().declare_token(token))  # its supervisor's router_token()
-        log.info("routing on %s%s", ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
+        log.info("%s %s%s", ROUTING, ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
         while not stop:
             time.sleep(0.2)
     return 0
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run router`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged run router", description=__doc__.splitlines()[0])
     parser.add_argument("--listen", action="append", default=None, help=f"endpoint(s), default {DEFAULT_ROUTER}")
     parser.add_argument("--connect", action="append", default=None,
@@ -32,5 +42,10 @@ def cli(argv=None) -> int:
                         help="the liveliness token that says this router is up (its supervisor's)")
     parser.add_argument("--instance", help=argparse.SUPPRESS)
     parser.add_argument("--name", help=argparse.SUPPRESS)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     args = parser.parse_args(argv)
     return main(args.listen or [DEFAULT_ROUTER], args.connect, args.token)

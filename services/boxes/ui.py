@@ -89,7 +89,8 @@ async def _watch(stop: StopFlag, done: threading.Event) -> None:
     done.set()
 
 
-def cli(argv=None) -> int:
+def arg_parser() -> argparse.ArgumentParser:
+    """The one reading of `dogged run ui`'s arguments (a profile's are read with it too)."""
     parser = argparse.ArgumentParser(prog="dogged ui", description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="main", help="the DL instance the page shows and teaches")
     parser.add_argument("--robot", default="aibo", help="whose camera, state and arena the page shows")
@@ -106,6 +107,11 @@ def cli(argv=None) -> int:
                              "in clear (a trusted network only)")
     parser.add_argument("--name", default="ui")
     add_bus_args(parser)
+    return parser
+
+
+def cli(argv=None) -> int:
+    parser = arg_parser()
     a = parser.parse_args(argv)
     host, _, port = a.http.rpartition(":")
     if not host or not port.isdigit() or not 0 <= int(port) <= 65535:

@@ -2,10 +2,8 @@
 system as a user starts it, and one place says which learner and which settings."""
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
-from services.learners import DEFAULT_LEARNER
 from services.params import parse_params
 from services.supervisor.profile import load_profile
 
@@ -19,8 +17,4 @@ def wired_learner(profile: str, instance: str | None = None) -> tuple[str, dict]
     spec = next((s for s in services if s.box == "learner" and instance in (None, s.instance)), None)
     if spec is None:
         raise ValueError(f"deploy/{profile}.toml starts no learner" + (f" for instance {instance}" if instance else ""))
-    parser = argparse.ArgumentParser(add_help=False)
-    parser.add_argument("--learner", default=DEFAULT_LEARNER)
-    parser.add_argument("--param", action="append")
-    args, _ = parser.parse_known_args(spec.args)
-    return args.learner, parse_params(args.param)
+    return spec.options.learner, parse_params(spec.options.param)

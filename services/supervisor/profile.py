@@ -1,13 +1,15 @@
 """Deploy profiles: declarative data (TOML), validated at start with errors that name the field."""
 from __future__ import annotations
 
+import argparse
 import time
 import tomllib
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 
 from bus_schema import check_name
-from services.boxes import BOX_ROLES
+from services.boxes import BOX_ROLES, parse_box_args
 
 BOXES = tuple(box for box in BOX_ROLES if box != "router")  # the supervisor starts the profile's router itself
 RESTART = ("never", "on-failure", "always")
@@ -32,12 +34,15 @@ class ServiceSpec:
     after: tuple[str, ...] = ()   # start once these services are ready
     stands_for: str = ""          # a hot-swapped learner: the profile's learner service it replaces
 
+    @cached_property
+    def options(self) -> argparse.Namespace:
+        """Its arguments as its box reads them (services.boxes.parse_box_args): the one reading of them."""
+        return parse_box_args(self.box, self.args)
+
     @property
     def role(self) -> str:
         """The role in the service's liveliness token dl/<instance>/alive/<role>/<name>."""
-        if self.box == "demonstrator":
-            return "default" if "default" in self.args and "--role" in self.args else "teacher"
-        return self.box
+        return self.options.role if self.box == "demonstrator" else self.box
 
 
 @dataclass(frozen=True)
@@ -59,16 +64,20 @@ class Profile:
 
     def service_args(self, spec: ServiceSpec) -> tuple[str, ...]:
         """The service's arguments, with the profile's state directory for a learner that names none."""
-        if spec.box == "learner" and self.state_dir is not None and "--state-dir" not in spec.args:
+        if spec.box == "learner" and self.state_dir is not None and spec.options.state_dir is None:
             return (*spec.args, "--state-dir", str(self.state_dir))
         return spec.args
 
     def where_things_go(self) -> str:
         """Where this profile keeps its learners' state, its logs and its recordings, for a person to read."""
         recorder = [s for s in self.services if s.box == "recorder"]
-        recordings = _arg(recorder[0], "--out", "(the recorder's own default)") if recorder else "not recorded"
+        recordings = (recorder[0].options.out or "(the recorder's own default)") if recorder else "not recorded"
         state = self.state_dir or "not kept (state_dir = \"\")"
         return f"state: {state}\nlogs: {self.log_dir}\nrecordings: {recordings}"
+
+    def state_dir_of(self, spec: ServiceSpec) -> Path | None:
+        """Where a learner keeps its pairs: its own --state-dir, else the profile's (None: nowhere)."""
+        return Path(spec.options.state_dir) if spec.options.state_dir is not None else self.state_dir
 
     def identity(self, spec: ServiceSpec) -> str:
         """The certificate a service of this profile shows: <role>.<service name>."""
@@ -117,6 +126,10 @@ def _service(name: str, table: dict, instance: str, where: str) -> ServiceSpec:
         env={str(k): str(v) for k, v in _get(table, "env", dict, where, {}).items()}, after=tuple(after))
     if spec.max_restarts < 0 or spec.backoff_s < 0 or spec.ready_timeout_s <= 0:
         raise ProfileError(f"{where}: max_restarts and backoff_s must be >= 0, ready_timeout_s > 0")
+    try:
+        spec.options  # noqa: B018 - read once here: a mistyped argument stops `up` before anything starts
+    except ValueError as err:
+        raise ProfileError(f"{where}.args: {spec.box} refuses them: {err}") from None
     return spec
 
 
@@ -201,11 +214,13 @@ HEAD_FIELDS = ("name", "instance", "log_dir", "state_dir", "low_latency", "recor
 
 
 def _with_state_dir_under(spec: ServiceSpec, base: Path) -> ServiceSpec:
-    """The service with a relative `--state-dir DIR` in its args made `base`/DIR."""
+    """The service with a relative `--state-dir DIR` (or `--state-dir=DIR`) in its args made `base`/DIR."""
     args = list(spec.args)
-    for i in range(len(args) - 1):
-        if args[i] == "--state-dir":
+    for i, arg in enumerate(args):
+        if arg == "--state-dir" and i + 1 < len(args):
             args[i + 1] = str(base / args[i + 1])
+        elif arg.startswith("--state-dir="):
+            args[i] = "--state-dir=" + str(base / arg.split("=", 1)[1])
     return replace(spec, args=tuple(args))
 
 
@@ -225,17 +240,11 @@ def _with_recorder(specs: tuple[ServiceSpec, ...], head: dict, instance: str, lo
         raise ProfileError("services.recorder: the name of the profile's recorder; name this service otherwise "
                            "or set profile.record = false")
     instances = list(dict.fromkeys([instance] + [s.instance for s in specs]))
-    robots = list(dict.fromkeys(_arg(s, "--robot", "aibo") for s in specs if s.box in ("aibo", "perception")))
+    robots = list(dict.fromkeys(s.options.robot for s in specs if s.box in ("aibo", "perception")))
     args = [arg for i in instances[1:] for arg in ("--instance", i)] + [a for r in robots for a in ("--robot", r)]
     run = folder / time.strftime("%Y-%m-%dT%H-%M-%S", time.localtime())
     args += ["--out", str(run), "--rotate-mb", str(rotate_mb), "--rotate-min", str(rotate_min)]
     return (ServiceSpec("recorder", "recorder", instance, tuple(args), restart="always", max_restarts=100), *specs)
-
-
-def _arg(spec: ServiceSpec, flag: str, default: str) -> str:
-    """The value a service's args give `flag` (its last), else `default`."""
-    values = [spec.args[i + 1] for i, a in enumerate(spec.args[:-1]) if a == flag]
-    return values[-1] if values else default
 
 
 def _check_no_cycle(specs) -> None:

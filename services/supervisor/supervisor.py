@@ -23,6 +23,7 @@ from bus_schema import (EVERY_ALIVE, EVERY_STATUS, ControlReply, InstanceKeys, S
 from services.bus.config import zenoh_config
 from services.bus.inbox import Inbox
 from services.bus.lifecycle import StopFlag
+from services.boxes.router import CANNOT_LISTEN, ROUTING
 from services.bus.publishers import HOST
 from services.realtime import hold_low_latency
 from services.supervisor.process import ManagedProcess
@@ -36,6 +37,7 @@ MAX_LOG_LINES = 10_000
 REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 MAX_REMOTE = 64  # services not ours kept and listed (the freshest): forged statuses under many names bloat nothing
 MAX_DEFERRED = 64  # verbs held while a swap runs; beyond, each is answered at once that a swap is under way
+ROUTER_START_S = 15.0  # the profile's router says it listens within this, or `up` fails saying why
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
 
@@ -138,7 +140,7 @@ class Supervisor:
 
     def restart_command(self, proc: ManagedProcess) -> list[str]:
         """A teacher comes back as the person left it: switched on if it was teaching when it died."""
-        on, since = self.teaching.get(proc.spec.name, ("--on" in proc.spec.args, 0.0))
+        on, since = self.teaching.get(proc.spec.name, (proc.spec.options.on, 0.0))
         died_teaching = not on and proc.died_at - since < SWITCH_OFF_BEFORE_DEATH
         command = [arg for arg in proc.command if arg != "--on"]
         return command + ["--on"] if on or died_teaching else command
@@ -193,7 +195,7 @@ class Supervisor:
             return ControlReply(False, f"no verb {verb[:64]!r}; verbs: {', '.join(VERBS)}", {})
         if unknown:
             return ControlReply(False, f"{verb}: unknown parameter(s) {', '.join(unknown)[:200]}", {})
-        if self.swapping:
+        if self.swapping and verb != "down":
             return ControlReply(False, f"{verb}: a hot-swap is under way and {MAX_DEFERRED} verbs wait for it; "
                                        "ask again after it", {})
         if verb == "ps":
@@ -281,15 +283,40 @@ class Supervisor:
         return False
 
     def handle_events(self, session) -> None:
-        """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order)."""
+        """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order), except
+        `down`, honoured at once: the swap then gives up and its new learner is stopped."""
         first = [self.deferred.pop(0)] if self.deferred and not self.swapping else []
         for item in itertools.chain(first, self.inbox.drain(0.0 if first else 0.05)):
-            if item[0] == "control" and self.swapping and len(self.deferred) < MAX_DEFERRED:
+            if self.swapping and held_during_swap(item) and len(self.deferred) < MAX_DEFERRED:
                 self.deferred.append(item)
             else:  # (a verb past MAX_DEFERRED during a swap is answered: busy)
                 self.on_event(item, session)
 
+    def answer_deferred(self) -> None:
+        """Verbs still held when the profile stops are told so, not left to time out."""
+        for _, key, query, _ in self.deferred:
+            verb = key.rsplit("/", 1)[-1]
+            query.reply(str(query.key_expr), encode(ControlReply(False, f"{verb}: the profile is stopping", {})))
+        self.deferred.clear()
+
     # --- the run ----------------------------------------------------------------------------
+    def router_problem(self) -> str:
+        """"" once the profile's own router says it listens; else why it does not (its own words: a
+        port another program or another profile's router holds, a mistyped endpoint)."""
+        router = self.procs["router"]
+        end = time.monotonic() + ROUTER_START_S
+        while time.monotonic() < end:
+            if any(ROUTING in line for line in list(router.tail)):
+                return ""
+            if router.proc.poll() is not None:
+                time.sleep(0.3)  # its last lines, still on their way through the pipe
+                said = [line[line.index(CANNOT_LISTEN):] for line in list(router.tail) if CANNOT_LISTEN in line]
+                return (said[-1] if said else
+                        f"the router exited with {router.proc.returncode} (see {router.log_path})")
+            time.sleep(0.05)
+        return f"the router did not say it listens on {self.profile.router} within {ROUTER_START_S:g} s " \
+               f"(see {router.log_path})"
+
     def run(self) -> int:
         self.stop_flag = StopFlag()
         prof = self.profile
@@ -304,6 +331,11 @@ class Supervisor:
             log.info("linking to the router at %s (another machine runs it)", prof.upstream)
         self.procs["router"] = ManagedProcess(router, box_command("router", *listen), prof.log_dir, self.echo)
         self.procs["router"].start()
+        problem = self.router_problem()
+        if problem:  # its session would wait for ever, or join whichever router holds the port
+            log.error("%s: nothing started", problem)
+            self.procs["router"].stop()
+            return 1
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
             held = []  # declarations live as long as these references (a dropped token is undeclared)
@@ -321,6 +353,7 @@ class Supervisor:
             self.waiting, self.up_since = list(prof.services), time.monotonic()
             self.pump(session)  # until the profile is stopping
             log.info("stopping %s", prof.name)
+            self.answer_deferred()
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
         self.procs["router"].stop()
@@ -332,6 +365,12 @@ class Supervisor:
         else:
             log.info("stopped; no process left")
         return 0
+
+
+def held_during_swap(item: tuple) -> bool:
+    """Whether a bus event waits for a swap to end: every verb but `down`."""
+    tag, key = item[0], item[1]
+    return tag == "control" and key.rsplit("/", 1)[-1] != "down"
 
 
 def not_running_row(name: str, box: str, state: str, **fields) -> dict:

@@ -6,12 +6,14 @@ snapshot, and fills any gap from the arbitrator's recent pairs (see services.box
 """
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import logging
 import time
 from pathlib import Path
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, encode
+from services.boxes import learner as learner_box
 from services.bus.publishers import lossless_publisher, wait_matching
 
 log = logging.getLogger("dogged.supervisor")
@@ -33,29 +35,27 @@ def parse_learner_spec(text: str) -> tuple[str, list[str]]:
     return name, params
 
 
-LEARNER_FLAGS = ("--learner", "--param", "--warm-from")  # what defines a learner, not where it runs
+LEARNER_DESTS = ("learner", "param", "warm_from")  # what defines a learner, not where it runs
 
 
 def _kept_args(args: tuple[str, ...]) -> list[str]:
-    """The old learner's flags minus what defines the learner itself (`--param x` or `--param=x`)."""
-    out, skip = [], False
-    for arg in args:
-        if skip:
-            skip = False
-        elif arg in LEARNER_FLAGS:
-            skip = True
-        elif not arg.startswith(tuple(f"{flag}=" for flag in LEARNER_FLAGS)):
-            out.append(arg)
-    return out
+    """The old learner's arguments minus what defines the learner itself, however spelled (`--param x`,
+    `--param=x`, `--par x`): a parser of the learner box's own flags for those takes them out."""
+    defining = argparse.ArgumentParser(add_help=False)
+    for action in learner_box.arg_parser()._actions:  # (argparse lists a parser's flags nowhere public)
+        if action.dest in LEARNER_DESTS:
+            defining.add_argument(*action.option_strings, dest=action.dest, action="append")
+    _, kept = defining.parse_known_args(list(args))
+    return kept
 
 
-def _set_aside_stale_log(args: tuple[str, ...], name: str) -> None:
+def _set_aside_stale_log(state_dir: Path | None, name: str) -> None:
     """A pair log under the new learner's name is an earlier run's (swap numbers start again with each
     `dogged up`): replayed, it would stand in for warming from the learner being replaced. It is kept,
     renamed, not deleted."""
-    if "--state-dir" not in args:
+    if state_dir is None:
         return
-    log_file = Path(args[args.index("--state-dir") + 1]) / f"{name}.pairs"
+    log_file = state_dir / f"{name}.pairs"
     if log_file.exists():
         aside = log_file.with_name(f"{log_file.name}.{time.strftime('%Y%m%d-%H%M%S')}.earlier")
         log_file.rename(aside)
@@ -86,7 +86,7 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     new_name = f"{stands_for}-s{sup.swap_count}"
     args = ("--learner", learner, *params, "--warm-from", old.spec.name, *_kept_args(old.spec.args))
     spec = dataclasses.replace(old.spec, name=new_name, args=args, stands_for=stands_for)
-    _set_aside_stale_log(sup.profile.service_args(spec), new_name)
+    _set_aside_stale_log(sup.profile.state_dir_of(spec), new_name)
     started = time.monotonic()
     new = sup.add(spec)
     sup.pump(session, lambda: new.state != "starting", spec.ready_timeout_s + 1.0)
