@@ -1,62 +1,52 @@
 """Ticks from the far future (issue 12): a Command or an Input with tick 2^63-1 once held the robot
 still until the platform restarted. Now the platform refuses an answer to a tick it never published,
-and the arbitrator an input that jumps implausibly far; both count it, and the loop goes on."""
-import collections
+and the arbitrator an input that jumps implausibly far; both count it, and the loop goes on.
+The platform's side drives the real PlatformLoop, built by its constructor, on the fake bus."""
 import logging
 import time
-import types
 
 import numpy as np
 import pytest
 
-from bus_schema import Command, encode
+from bus_schema import Applied, Command, InstanceKeys, decode, encode
 from services.arbitration.ticks import CONFIRMING, MAX_TICK_JUMP, TickTable
 from services.boxes import platform as box
-from services.bus.inbox import Rejects
+from services.platforms import make_platform
+from tests.fakebus import FakeSession
 
 FAR = 2 ** 63 - 1
-
-
-class Robot:
-    def __init__(self):
-        self.stepped = []
-
-    def step(self, y, dt):
-        self.stepped.append(np.asarray(y).copy())
-        return y
-
-    def hold(self, dt):
-        self.stepped.append(None)
-
-
-def platform_loop() -> box.PlatformLoop:
-    """The platform service's command handling with the bus replaced."""
-    loop = box.PlatformLoop.__new__(box.PlatformLoop)
-    loop.platform, loop.dims, loop.log = Robot(), 2, logging.getLogger("t")
-    loop.rejects, loop.counts, loop.mode = Rejects(loop.log), collections.Counter(), ""
-    loop.tick, loop.latest, loop.latest_at, loop.applied_tick = 0, None, -1.0, -1
-    loop.answered, loop.latencies, loop.recent_latency = set(), None, collections.deque(maxlen=10)
-    loop.applied_pub = types.SimpleNamespace(put=lambda payload: None)
-    loop.episodes = None  # a robot without a task's reward
-    return loop
+KEYS = InstanceKeys("main")
+LOG = logging.getLogger("test.hostile_ticks")
 
 
 def command(tick, y=(0.1, 0.2)):
     return encode(Command(tick, time.time(), np.array(y), "teacher", "teacher/t", 1.0))
 
 
-@pytest.mark.parametrize("tick", [FAR, 4, 0])
-def test_the_platform_refuses_a_command_for_a_tick_it_never_published(tick):
-    loop = platform_loop()
-    loop.tick = 3
-    loop.on_command("dl/main/command", command(tick, (9.0, 9.0)))
-    assert loop.rejects.total == 1 and loop.latest is None
-    for t in (3, 4, 5):  # the real loop goes on: each tick's command is applied
-        loop.tick = t
-        loop.on_command("dl/main/command", command(t))
+@pytest.fixture
+def point():
+    with make_platform("point", dims=2) as robot:
+        yield robot
+
+
+@pytest.mark.parametrize("tick", [FAR, 3 + 10 ** 9, 4, 0])
+def test_the_platform_refuses_a_command_for_a_tick_it_never_published(tick, point, caplog):
+    bus = FakeSession()
+    loop = box.PlatformLoop(bus, KEYS, point, LOG)
+    for _ in range(3):
+        loop.publish_input()
+    with caplog.at_level(logging.WARNING, logger=LOG.name):
+        loop.on_command(KEYS.command, command(tick, (0.9, -0.9)))
+    assert loop.rejects.counts == {KEYS.command: 1} and loop.status()[0]["rejected"] == 1
+    assert f"a command for tick {tick}, which this platform has not published (its last tick is 3)" in caplog.text
+    assert loop.latest is None and loop.answered == set() and loop.counts["commands"] == 0
+    for _ in range(3):  # the real loop goes on: each tick's command is applied, the hostile one never
+        loop.on_command(KEYS.command, command(loop.tick))
         loop.advance(0.03, watchdog=0.5)
-    assert loop.applied_tick == 5 and all(s is not None for s in loop.platform.stepped)
-    assert loop.counts["commands"] == 3
+        loop.publish_input()
+    applied = [decode(Applied, payload, KEYS.applied) for payload in bus.on(KEYS.applied)]
+    assert [a.tick for a in applied] == [3, 4, 5] and all(np.allclose(a.y, (0.1, 0.2)) for a in applied)
+    assert loop.counts["commands"] == 3 and loop.counts["held"] == 0 and loop.tick == 6
 
 
 def test_the_arbitrator_refuses_an_input_far_past_the_last_and_goes_on():
