@@ -178,19 +178,20 @@ def test_a_swap_stops_waiting_when_the_profile_stops(tmp_path):
 
 
 class FakeQuery:
-    def __init__(self, verb: str):
-        self.key_expr, self.parameters, self.replies = supervisor_key("policy", verb), zenoh.Parameters(""), []
+    def __init__(self, verb: str, parameters: str = ""):
+        self.key_expr, self.parameters = supervisor_key("policy", verb), zenoh.Parameters(parameters)
+        self.replies = []
 
     def reply(self, key, payload):
         self.replies.append(decode(ControlReply, payload, key))
 
 
-def test_verbs_that_arrive_during_a_swap_wait_for_it_but_down_does_not(tmp_path):
+def test_a_swap_that_arrives_during_a_swap_waits_for_it_but_down_does_not(tmp_path):
     """`down` waited with the other verbs: the CLI gave up after 5 s while the profile stopped up to a
-    minute later. Now the swap gives up at once, its new learner stopped, and `ps` is told why."""
+    minute later. Now the swap gives up at once, its new learner stopped, and a second swap is told why."""
     sup = ready_learner(tmp_path, {}, ready_timeout_s=15.0)  # the new learner is never ready
-    ps, down = FakeQuery("ps"), FakeQuery("down")
-    for query in (ps, down):
+    second, down = FakeQuery("swap"), FakeQuery("down")
+    for query in (second, down):
         sup.inbox.put(("control", str(query.key_expr), query, None))
     try:
         started = time.monotonic()
@@ -199,10 +200,28 @@ def test_verbs_that_arrive_during_a_swap_wait_for_it_but_down_does_not(tmp_path)
         assert down.replies and down.replies[0].ok and "stopping profile" in down.replies[0].text
         assert not reply.ok and "the profile is stopping" in reply.text, reply.text
         assert "learner-s1" not in sup.procs and sup.stopping
-        assert ps.replies == [] and len(sup.deferred) == 1, "ps still waits for the swap"
+        assert second.replies == [] and len(sup.deferred) == 1, "a second swap waits for the first"
         sup.answer_deferred()
-        assert not ps.replies[0].ok and "the profile is stopping" in ps.replies[0].text
+        assert not second.replies[0].ok and "the profile is stopping" in second.replies[0].text
     finally:
+        sup.stop_all()
+
+
+def test_ps_and_logs_are_answered_at_once_during_a_swap(tmp_path):
+    """They waited for the swap to end, and the CLI gave up after 5 s while a long swap warmed its
+    learner ("did not answer"); they only read, so they are answered while the swap runs."""
+    sup = ready_learner(tmp_path, {})
+    ps, logs = FakeQuery("ps"), FakeQuery("logs", "service=learner")
+    for query in (ps, logs):
+        sup.inbox.put(("control", str(query.key_expr), query, None))
+    try:
+        sup.swapping = True
+        sup.turn(lambda: bool(ps.replies and logs.replies), 2.0)
+        assert ps.replies and ps.replies[0].ok and "learner" in {row["name"] for row in ps.replies[0].data["services"]}
+        assert logs.replies and logs.replies[0].ok, logs.replies
+        assert sup.deferred == []
+    finally:
+        sup.swapping = False
         sup.stop_all()
 
 
@@ -210,18 +229,20 @@ def test_a_flood_of_verbs_during_a_swap_is_held_up_to_a_bound_and_the_rest_answe
     """Verbs held during a swap were unbounded: a stranger's flood of well-formed queries (any local
     process may ask on an unsecured profile) grew the list for as long as the swap ran."""
     sup = ready_learner(tmp_path, {})
-    flood = [FakeQuery("ps") for _ in range(MAX_DEFERRED + 36)]
+    flood = [FakeQuery("swap") for _ in range(MAX_DEFERRED + 36)]
     for query in flood:
         sup.inbox.put(("control", str(query.key_expr), query, None))
     try:
         sup.swapping = True
         sup.turn(lambda: False, 0.3)
         busy = [q.replies[0] for q in flood if q.replies]
-        assert len(sup.deferred) == MAX_DEFERRED and len(busy) == 36 and sup.refused["ps"] == 36
+        assert len(sup.deferred) == MAX_DEFERRED and len(busy) == 36 and sup.refused["swap"] == 36
         assert all(not r.ok and "a hot-swap is under way" in r.text for r in busy)
         sup.swapping = False
         sup.turn(lambda: not sup.deferred, 5.0)
-        assert all(q.replies and q.replies[-1].ok for q in flood[:MAX_DEFERRED]), "the held ones answered after it"
+        held = [q.replies[-1] for q in flood[:MAX_DEFERRED] if q.replies]
+        assert len(held) == MAX_DEFERRED and not any("a hot-swap is under way" in r.text for r in held), \
+            "the held ones answered after it"
     finally:
         sup.stop_all()
 

@@ -195,7 +195,7 @@ class Supervisor:
             return ControlReply(False, f"no verb {verb[:64]!r}; verbs: {', '.join(VERBS)}", {})
         if unknown:
             return ControlReply(False, f"{verb}: unknown parameter(s) {', '.join(unknown)[:200]}", {})
-        if self.swapping and verb != "down":
+        if self.swapping and verb not in ANSWERED_DURING_SWAP:
             return ControlReply(False, f"{verb}: a hot-swap is under way and {MAX_DEFERRED} verbs wait for it; "
                                        "ask again after it", {})
         if verb == "ps":
@@ -283,8 +283,9 @@ class Supervisor:
         return False
 
     def handle_events(self, session) -> None:
-        """What came in for up to 50 ms; during a swap, verbs wait (answered after it, in order), except
-        `down`, honoured at once: the swap then gives up and its new learner is stopped."""
+        """What came in for up to 50 ms; during a swap, another swap waits (answered after it, in order);
+        `ps` and `logs` are answered at once, and `down` honoured at once: the swap then gives up and its
+        new learner is stopped."""
         first = [self.deferred.pop(0)] if self.deferred and not self.swapping else []
         for item in itertools.chain(first, self.inbox.drain(0.0 if first else 0.05)):
             if self.swapping and held_during_swap(item) and len(self.deferred) < MAX_DEFERRED:
@@ -367,10 +368,15 @@ class Supervisor:
         return 0
 
 
+ANSWERED_DURING_SWAP = ("down", "ps", "logs")  # down stops it; ps and logs only read
+
+
 def held_during_swap(item: tuple) -> bool:
-    """Whether a bus event waits for a swap to end: every verb but `down`."""
+    """Whether a bus event waits for a swap to end: a verb that would change what the swap changes
+    (another swap); `down` is honoured at once, and `ps` and `logs` only read, so they are answered
+    at once too (held, the CLI gave up after its 5 s while a long swap ran)."""
     tag, key = item[0], item[1]
-    return tag == "control" and key.rsplit("/", 1)[-1] != "down"
+    return tag == "control" and key.rsplit("/", 1)[-1] not in ANSWERED_DURING_SWAP
 
 
 def not_running_row(name: str, box: str, state: str, **fields) -> dict:
