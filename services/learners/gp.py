@@ -48,7 +48,7 @@ class GP(Learner):
 
     state_classes = (LocalGP,)
 
-    def __init__(self, n_in: int, n_out: int, seed: int = 0, *, leaves: int = 8, memory: int = 400,
+    def __init__(self, n_in: int, n_out: int, seed: int = 0, *, leaves: int = 8, memory: int = 800,
                  near: float = 0.04, fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024,
                  noise_floor: float = 1e-5, relevance_prior_sd: float = 2.0, max_iterations: int = 60,
                  novelty_scale: float = 0.25, noise_ceiling: float | None = None):
