@@ -40,6 +40,7 @@ class Phase:
     ticks: list[TickSeen]  # of the instance the platform obeys (the lowest of a chain)
     upper: list[TickSeen]  # of the level above it (hierarchy's seek), else empty
     platform_ms: tuple[float, float]  # the platform's own p50 and p99, over its last 10 s
+    taught: int  # pairs the platform's learner had learned by the phase's end
     arbitrators: dict  # level ("lower", "upper") -> its arbitrator's counters' growth over the phase (read
     # from its statuses, each up to a second stale)
 
@@ -76,6 +77,7 @@ def watch(name: str, work: Path, seconds: dict[str, float]) -> tuple[Profile, di
     observers = {i: HopObserver(endpoint, i) for i in (lower, upper) if i}
     probe = Probe(endpoint)
     arbitrators = {level: member(profile, "arbitrator", i) for level, i in (("lower", lower), ("upper", upper)) if i}
+    learner = member(profile, "learner", lower)
     phases = {}
     try:
         if getattr(platform.options, "camera_hz", 0) or getattr(platform.options, "input_mode", "") == "camera":
@@ -95,7 +97,8 @@ def watch(name: str, work: Path, seconds: dict[str, float]) -> tuple[Profile, di
                      for level, m in arbitrators.items()}
             platform_ms = tuple(float(probe.state(f"{platform.role}/{platform.name}", k, np.nan))
                                 for k in ("latency_p50_ms", "latency_p99_ms"))
-            phases[phase] = Phase(seen[lower], seen.get(upper, []), platform_ms, grown)
+            phases[phase] = Phase(seen[lower], seen.get(upper, []), platform_ms, probe.counter(learner, "learned"),
+                                  grown)
     finally:
         probe.close()
         for observer in observers.values():
@@ -134,16 +137,18 @@ def summarise(name: str, profile: Profile, phases: dict[str, Phase], floor_rtt_m
             figures |= {f"{key}_tick_p50_ms{suffix}": round(p50, 3), f"{key}_tick_p99_ms{suffix}": round(p99, 3),
                         f"{key}_without_learner{suffix}": round(without, 4),
                         f"{key}_deadline_misses{suffix}": round(missed, 4)}
-            lower = level == "lower"
-            rows.append((f"{name}{'' if lower else ' (upper level)'}", phase, len(ms), p50, p99,
-                         floor if lower else np.nan, p.platform_ms if lower else (np.nan, np.nan), without, missed,
-                         hop_medians_us(ticks, np.array([p.platform_ms[0]])) if lower else {}))
+            if level == "lower":  # the platform's tick: its own view, its floor, where the time goes
+                seen = (p.taught, floor, p.platform_ms, hop_medians_us(ticks, np.array([p.platform_ms[0]])))
+            else:
+                seen = ("", np.nan, (np.nan, np.nan), {})
+            rows.append((name + ("" if level == "lower" else " (upper level)"), phase, seen[0], len(ms), p50, p99,
+                         seen[1], seen[2], without, missed, seen[3]))
     return rows, figures
 
 
 def measure(work: Path, quick: bool, floor_rtt_ms: dict[float, float]) -> tuple[list, dict]:
     """Every profile in turn; `floor_rtt_ms`: the Zenoh round trip's median at each profile's rate."""
-    seconds = {"teaching": 12.0, "student": 12.0} if quick else {"teaching": 60.0, "student": 30.0}
+    seconds = {"teaching": 10.0, "student": 10.0} if quick else {"teaching": 60.0, "student": 30.0}
     rows, figures = [], {}
     for name in PROFILES:
         profile, phases = watch(name, work, seconds)
@@ -159,13 +164,14 @@ def rates() -> list[float]:
 
 
 def print_table(rows: list) -> None:
-    print(f"\n{'profile':<26}{'phase':<10}{'ticks':>7}{'p50 ms':>9}{'p99 ms':>9}{'floor':>8}"
+    print(f"\n{'profile':<26}{'phase':<10}{'taught':>7}{'ticks':>7}{'p50 ms':>9}{'p99 ms':>9}{'floor':>8}"
           f"{'platform p50/p99':>18}{'no learner':>12}{'missed':>8}   hops (us): to bus, learner, arbitrator, "
           "to platform")
-    for name, phase, n, p50, p99, floor, platform_ms, without, missed, hops in rows:
+    for name, phase, taught, n, p50, p99, floor, platform_ms, without, missed, hops in rows:
         hop_text = ", ".join(f"{v:.0f}" for v in hops.values())
-        print(f"{name:<26}{phase:<10}{n:>7}{p50:>9.2f}{p99:>9.2f}{floor:>8.2f}"
+        print(f"{name:<26}{phase:<10}{taught:>7}{n:>7}{p50:>9.2f}{p99:>9.2f}{floor:>8.2f}"
               f"{platform_ms[0]:>9.2f}/{platform_ms[1]:<8.2f}{without:>12.1%}{missed:>8.1%}   {hop_text}")
-    print("p50, p99: input stamp -> command seen by an observer on the bus; floor: a Zenoh round trip between two "
+    print("taught: pairs its learner had learned by the phase's end; "
+          "p50, p99: input stamp -> command seen by an observer on the bus; floor: a Zenoh round trip between two "
           "Python processes at the profile's rate, half of one per hop; platform: its own view over its last "
           "10 s; no learner: ticks its arbitrator decided without the learner's proposal; missed: at the deadline")
