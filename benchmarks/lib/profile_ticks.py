@@ -72,15 +72,15 @@ def watch(name: str, work: Path, seconds: dict[str, float]) -> tuple[Profile, di
     lower = platform.options.command_from or platform.instance
     upper = next((i for i, _ in LESSONS[name] if i != lower), None)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    run = when_ready(LiveRun(path, run_dir, endpoint, instance=lower))
-    steer = {i: run if i == lower else BusRecorder(endpoint, i) for i, _ in LESSONS[name]}
-    observers = {i: HopObserver(endpoint, i) for i in (lower, upper) if i}
-    probe = Probe(endpoint)
     arbitrators = {level: member(profile, "arbitrator", i) for level, i in (("lower", lower), ("upper", upper)) if i}
     learner = member(profile, "learner", lower)
-    phases = {}
-    try:
-        if getattr(platform.options, "camera_hz", 0) or getattr(platform.options, "input_mode", "") == "camera":
+    run = when_ready(LiveRun(path, run_dir, endpoint, instance=lower))
+    steer, observers, probe, phases = {lower: run}, {}, None, {}
+    try:  # whatever fails, the profile is stopped: left running it would load every run after
+        steer |= {i: BusRecorder(endpoint, i) for i, _ in LESSONS[name] if i != lower}
+        observers = {i: HopObserver(endpoint, i) for i in (lower, upper) if i}
+        probe = Probe(endpoint)
+        if any(s.box == "perception" for s in profile.services):
             run.reset_arena(*ARENA)
         run.run_ticks(int(platform.options.rate), timeout=60)  # a second of the loop running
         probe.wait_for_fresh_status(*arbitrators.values())
@@ -100,7 +100,8 @@ def watch(name: str, work: Path, seconds: dict[str, float]) -> tuple[Profile, di
             phases[phase] = Phase(seen[lower], seen.get(upper, []), platform_ms, probe.counter(learner, "learned"),
                                   grown)
     finally:
-        probe.close()
+        if probe is not None:
+            probe.close()
         for observer in observers.values():
             observer.close()
         for recorder in steer.values():
