@@ -9,8 +9,13 @@ between), is the tick's floor in Python over Zenoh. Everything is measured twice
 deployed by default, then in low-latency mode (a PM QoS request keeping CPUs out of deep idle,
 `low_latency = true` in a profile); keys of the second carry `_low_latency`; the 100 Hz loop is
 also measured with a recorder writing every sample (`_recorded`: every profile runs one), and split
-into hops as an observer on the bus sees them (`hop_us_*`, benchmarks/lib/hops.py). Prints tables;
-the last line is one JSON object of the figures.
+into hops as an observer on the bus sees them (`hop_us_*`, benchmarks/lib/hops.py).
+
+Then what users run (issue 34): each profile of deploy/ as it is, with its wired learner, while a teacher
+teaches and while the student drives (`<profile>_tick_*`, beside `<profile>_tick_floor_ms`, the Zenoh round
+trip at its rate times half its hops; benchmarks/lib/profile_ticks.py), and each learner's cost per call at
+the profiles' shapes (`learner_*`, benchmarks/lib/learner_costs.py). Prints tables; the last line is one JSON
+object of the figures.
 """
 from __future__ import annotations
 
@@ -28,9 +33,9 @@ import time
 import numpy as np
 
 from benchmarks.lib.hops import DESCRIBED, HOPS, HopObserver  # noqa: E402
-from benchmarks.lib import zenoh_echo  # noqa: E402
+from benchmarks.lib import learner_costs, profile_ticks, zenoh_echo  # noqa: E402
 from benchmarks.lib.udp_echo import round_trips  # noqa: E402
-from services.realtime import hold_low_latency  # noqa: E402
+from services.realtime import hold_low_latency, release_low_latency  # noqa: E402
 from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
 
 
@@ -46,11 +51,16 @@ def udp_floor(count: int) -> np.ndarray:
 
 
 def zenoh_floor(router: str, quick: bool) -> dict[float, np.ndarray]:
-    """Round trips (ms) back to back (rate 0) and paced as ticks come, at 1 kHz and 100 Hz."""
-    proc = dogged_python("benchmarks/lib/zenoh_echo.py", router, "300")
+    """Round trips (ms) back to back (rate 0) and paced as ticks come, at 1 kHz and 100 Hz, and at each
+    profile's rate (5 s of it, quick; 20 s)."""
+    proc = dogged_python("benchmarks/lib/zenoh_echo.py", router, "600")
     counts = {0.0: 2000, 1000.0: 2000, 100.0: 300} if quick else {0.0: 10000, 1000.0: 10000, 100.0: 2000}
+    paced = {rate: int(rate * (5 if quick else 20)) for rate in profile_ticks.rates()}
     try:
-        return {rate: zenoh_echo.round_trips(router, n, rate_hz=rate) * 1e3 for rate, n in counts.items()}
+        out = {rate: zenoh_echo.round_trips(router, n, rate_hz=rate) * 1e3 for rate, n in counts.items()}
+        # at a profile's slow pace a second's round trips warm up, not 200 (13 s at 15 Hz)
+        return out | {rate: zenoh_echo.round_trips(router, n, rate_hz=rate, warm_up=int(rate)) * 1e3
+                      for rate, n in paced.items()}
     finally:
         stop(proc)
 
@@ -133,11 +143,16 @@ def main(quick: bool) -> dict:
         probe.close()
         observer.close()
         stop(*reversed(boxes))
+    release_low_latency()  # the profiles as deployed: none asks for low latency
+    rtt_at = {rate: float(np.nanpercentile(rtt, 50)) for rate, rtt in echoed.items()}
+    profile_rows, profile_figures = profile_ticks.measure(work, quick, rtt_at)  # alone on the machine, each
+    learner_rows, learner_figures = learner_costs.measure(quick)
     figures["udp_rtt_ms"] = round(float(np.percentile(udp, 50)), 4)
     figures["udp_rtt_p99_ms"] = round(float(np.percentile(udp, 99)), 4)
     figures["tick_p50_over_udp"] = round(figures["tick_p50_ms"] / figures["udp_rtt_ms"], 1)
     floor_rows = []
-    for rate, suffix in ((0.0, ""), (1000.0, "_1khz"), (100.0, "_100hz")):
+    profile_rates = [(rate, f"_{rate:g}hz") for rate in profile_ticks.rates()]
+    for rate, suffix in ((0.0, ""), (1000.0, "_1khz"), (100.0, "_100hz"), *profile_rates):
         rtt = echoed[rate]
         figures[f"zenoh_rtt_ms{suffix}"] = round(float(np.nanpercentile(rtt, 50)), 4)
         figures[f"zenoh_rtt_p99_ms{suffix}"] = round(float(np.nanpercentile(rtt, 99)), 4)
@@ -166,10 +181,12 @@ def main(quick: bool) -> dict:
         print(f"{DESCRIBED[hop]:<58}{figures[f'hop_us_{hop}']:>12.1f}{low_us:>12.1f}")
     print(f"highest rate held with no tick lost: {figures['max_rate_hz']} Hz "
           f"(low-latency mode: {figures.get('max_rate_hz_low_latency', 'n/a')} Hz); logs in {work}")
-    return figures
+    profile_ticks.print_table(profile_rows)
+    learner_costs.print_table(learner_rows)
+    return figures | profile_figures | learner_figures
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="a shorter run (about a minute)")
+    parser.add_argument("--quick", action="store_true", help="a shorter run (about five minutes)")
     print(json.dumps(main(parser.parse_args().quick)))

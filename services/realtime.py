@@ -28,3 +28,11 @@ def hold_low_latency(log: logging.Logger | None = None) -> bool:
         return False
     _held = fd
     return True
+
+
+def release_low_latency() -> None:
+    """Drop the request (closing the file ends it): what runs next pays idle wake-ups, as by default."""
+    global _held
+    if _held is not None:
+        os.close(_held)
+        _held = None

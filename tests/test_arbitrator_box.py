@@ -62,6 +62,8 @@ def test_a_tick_waits_for_the_learner_until_its_deadline_then_a_silent_member_is
     b.input(99)
     b.decide()
     assert b.commands()[-1].tick == 99, "no longer waited for: decided at once"
+    assert b.arb.counts["without_learner"] == MISSES_BEFORE_IGNORED + 1, "each tick so far went on without it"
+    assert b.arb.counts["deadline_misses"] == MISSES_BEFORE_IGNORED, "the last one without missing a deadline"
     b.propose("learner", "student", 100, (0.1, 0.1))
     assert b.arb.silent() == [], "it answers: waited for again"
 

@@ -36,17 +36,18 @@ def echo(router: str, seconds: float) -> None:
         del sub
 
 
-def round_trips(router: str, count: int, size: int = 96, rate_hz: float = 0.0) -> np.ndarray:
+def round_trips(router: str, count: int, size: int = 96, rate_hz: float = 0.0, warm_up: int = WARM_UP) -> np.ndarray:
     """Seconds per round trip (NaN for one whose echo never came within a second): back to back, or
-    one every 1/rate_hz seconds (as ticks come: both processes idle, and wake, in between)."""
-    inbox, out = Inbox(), np.full(count + WARM_UP, np.nan)
+    one every 1/rate_hz seconds (as ticks come: both processes idle, and wake, in between), after
+    `warm_up` more not counted."""
+    inbox, out = Inbox(), np.full(count + warm_up, np.nan)
     with zenoh.open(zenoh_config(connect=[router])) as session:
         pub = sensor_publisher(session, PING)
         sub = session.declare_subscriber(PONG, inbox.callback("pong"))
         if not wait_matching(pub, 10.0):
             raise TimeoutError("the echo process never subscribed")
         next_at = time.perf_counter()
-        for i in range(count + WARM_UP):
+        for i in range(count + warm_up):
             if rate_hz:
                 next_at += 1.0 / rate_hz
                 time.sleep(max(0.0, next_at - time.perf_counter()))
@@ -58,7 +59,7 @@ def round_trips(router: str, count: int, size: int = 96, rate_hz: float = 0.0) -
                     out[i] = time.perf_counter() - started
                     break
         del sub
-    return out[WARM_UP:]
+    return out[warm_up:]
 
 
 if __name__ == "__main__":

@@ -162,6 +162,8 @@ class Arbitrator:
             teachers = self.speaking(entry, "teacher", "teaching")
             mine = f"learner/{learner}"
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
+            # past the deadline, while the learner is not waited for, or with none alive: the tick went on without it
+            self.counts["without_learner"] += learner_p is None
             defaults = self.speaking(entry, "default", "default")
             d, clipped = decide(self.strategy, teachers, learner_p, defaults[0] if defaults else None,
                                 self.last_command, self.output_space, self.choice)
