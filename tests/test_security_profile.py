@@ -16,7 +16,7 @@ import pytest
 import zenoh
 from websockets.asyncio.client import connect
 
-from bus_schema import Applied, Command, TrainingPair, decode, encode
+from bus_schema import Applied, Command, Input, TrainingPair, decode, encode
 from services.bus.config import zenoh_config
 from services.certificates import make_certs
 from services.security import is_loopback
@@ -129,13 +129,16 @@ FORGED = np.array([0.777, -0.777])
 
 
 def forge(endpoint: str, certs, forger: str) -> collections.Counter:
-    """`forger` sends 300 commands and 5 training pairs of its making; what of them an operator on the
+    """`forger` answers 300 of the robot's inputs with commands of its making (each for the robot's
+    newest tick, as the arbitrator's are) and sends 5 training pairs; what of them an operator on the
     roster heard, and how often the robot applied the forged command."""
-    heard = collections.Counter()
+    heard, newest = collections.Counter(), [0]
 
     def note(sample):
         key, raw = str(sample.key_expr), sample.payload.to_bytes()
-        if key.endswith("/applied"):
+        if key.endswith("/input"):
+            newest[0] = decode(Input, raw, key).tick
+        elif key.endswith("/applied"):
             heard["applied"] += bool(np.allclose(decode(Applied, raw, key).y, FORGED))
         elif key.endswith("/command"):
             heard["command"] += decode(Command, raw, key).source == "forged"
@@ -145,12 +148,12 @@ def forge(endpoint: str, certs, forger: str) -> collections.Counter:
     def session(cn):
         return zenoh.open(zenoh_config(connect=[endpoint], mode="client", security=certs, identity=cn))
     with session("operator.bob") as bob, session(forger) as eve:
-        held = [bob.declare_subscriber(f"dl/main/{k}", note) for k in ("command", "applied", "train")]
+        held = [bob.declare_subscriber(f"dl/main/{k}", note) for k in ("input", "command", "applied", "train")]
         time.sleep(0.5)
-        for tick in range(300):
-            eve.put("dl/main/command", encode(Command(tick, time.time(), FORGED, "teacher", "forged", 1.0)))
-            if tick % 60 == 0:
-                eve.put("dl/main/train", encode(TrainingPair("forged", tick, tick, np.zeros(2), FORGED, "forged")))
+        for i in range(300):
+            eve.put("dl/main/command", encode(Command(newest[0], time.time(), FORGED, "teacher", "forged", 1.0)))
+            if i % 60 == 0:
+                eve.put("dl/main/train", encode(TrainingPair("forged", i, newest[0], np.zeros(4), FORGED, "forged")))
             time.sleep(0.01)
         time.sleep(0.5)
         del held
