@@ -15,11 +15,12 @@ import os
 import re
 import threading
 
-# what Zenoh 1.x writes (zenoh_link_tls/quic::unicast at debug, the access control at info); pinned by
+# what Zenoh 1.x writes (zenoh_link_tls/quic::unicast at debug, the access control at info; nothing else of
+# Zenoh's log, which services did not show before); pinned by
 # tests/test_refusals.py against lines a real router wrote
 ACCEPTED = re.compile(r"Accepted (?:TLS|QUIC) connection on \S+: (\S+)\. Common Name: (.*)\.$")
 UNMATCHED = re.compile(r"(\w+) did not match any configured ACL subject")
-ZENOH_LOG = ("error,zenoh_link_tls::unicast=debug,zenoh_link_quic::unicast=debug,"
+ZENOH_LOG = ("off,zenoh_link_tls::unicast=debug,zenoh_link_quic::unicast=debug,"
              "zenoh::net::routing::interceptor::access_control=info")
 UNNAMED = "?"  # a refusal whose certificate's name was not logged (a link this process opened itself)
 
