@@ -28,7 +28,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks.loop import run_platform  # noqa: E402
 from services.experiments.faults import KILLED, STOPPED, run_faults  # noqa: E402
-from services.security import make_certs  # noqa: E402
+from services.certificates import make_certs  # noqa: E402
 from tests.harness import dogged, free_port, stop  # noqa: E402
 
 QUICK_KILLED = ("learner", "arbitrator")

@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         return up(args.profile_file, args.router, not args.quiet, args.insecure, args.join)
     if args.verb == "certs":
         from services.supervisor.commands import certs
-        return certs(args.directory, args.profile_file, args.identity)
+        return certs(args.directory, args.profile_file, args.identity, args.ca)
     from services.supervisor import commands
     return getattr(commands, args.verb)(args)
 
@@ -96,7 +96,9 @@ def verbs_parser() -> argparse.ArgumentParser:
     up.add_argument("--quiet", action="store_true", help="do not echo service logs to the console")
     up.add_argument("--insecure", action="store_true", help="listen beyond loopback without TLS and access control")
     certs = sub.add_parser("certs", help="a CA and certificates: every identity a profile needs, and people's")
-    certs.add_argument("directory")
+    certs.add_argument("directory", help="the services' directory: ca.pem and a folder per identity")
+    certs.add_argument("--ca", default=None, metavar="CADIR",
+                       help="the CA's directory, outside DIRECTORY (default: its sibling DIRECTORY-ca); made once")
     certs.add_argument("--profile", dest="profile_file", action="append", default=None,
                        help="make every identity this profile needs (repeatable: one CA for several machines)")
     certs.add_argument("--identity", action="append", default=[], metavar="ROLE.NAME",

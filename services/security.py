@@ -1,9 +1,11 @@
-"""Who may say what on the bus: mutual TLS identities and Zenoh access control (issue 12).
+"""Who may say what on the bus: mutual TLS identities and Zenoh access control (issues 12 and 30).
 
 Every process that joins a secured router shows a certificate signed by the deployment's own CA
-(`dogged certs`); anyone else cannot connect. A certificate's common name is its identity,
-`<role>.<name>` (`teacher.alice`, `platform.aibo`, `operator.bob`), and the router's access control
-lets each role say only its part, as the paper's Figure 1 draws it:
+(`dogged certs`, services/certificates.py); anyone else cannot connect. A certificate's common name is
+its identity, `<role>.<name>` (`teacher.alice`, `platform.aibo`, `operator.bob`). Access control denies
+by default: only the identities on the deployment's roster (the identity folders of its `dogged certs`
+directory, read once by `dogged up` and handed to every process it starts) get anything, and each
+role says only its part, as the paper's Figure 1 draws it:
 
 | who | alone may |
 |---|---|
@@ -16,29 +18,35 @@ lets each role say only its part, as the paper's Figure 1 draws it:
 | operator (a person), supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor |
 | operator (a person, `dogged ui`) | also teach by teleoperation: teacher proposals and teaching tokens |
 | supervisor | answer the supervisor's verbs |
+| router (`router.router` only) | everything: a router forwards only what its own access control let in |
 
 The recorder owns nothing: it only listens and asks. Everything else (subscribing, status, querying
-the owners) stays open to every identity. Services join as peers that link to each other directly
-over mutual TLS (a hop fewer than through the router), so every peer enforces the same access
-control on what reaches it, as the router does on what its clients send; what the router forwards
-has passed its check.
+the owners) is open to every identity on the roster, and to no other: a certificate of the same CA
+made after the roster was read, or a `router.*` other than `router.router`, matches no subject and
+gets nothing, neither in nor out (services/refusals.py counts those refusals). Services join as peers
+that link to each other directly over mutual TLS (a hop fewer than through the router), so every peer
+enforces the same access control on what reaches it, as the router does on what its clients send.
 """
 from __future__ import annotations
 
-import datetime
 import ipaddress
 import json
+import os
 import re
 from pathlib import Path
 
 from bus_schema.keys import SUPERVISOR, InstanceKeys, RobotKeys
 
+ROUTER_IDENTITY = "router.router"  # the one identity of the router role
+ROSTER_ENV = "DOGGED_ROSTER"  # the roster `dogged up` read, handed to every process it starts
 ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "recorder", "operator",
          "supervisor", "router")
 _IDENTITY = re.compile(r"^([a-z]+)\.([a-z0-9][a-z0-9_-]{0,63})$")
 
 # (what, key expressions, the roles that alone may do it); ACL message kinds of Zenoh 1.x
 _PUT, _ANSWER, _TOKEN, _ASK = ["put", "delete"], ["declare_queryable", "reply"], ["liveliness_token"], ["query"]
+_EVERY_MESSAGE = [*_PUT, *_ANSWER, *_TOKEN, *_ASK, "declare_subscriber", "declare_liveliness_subscriber",
+                  "liveliness_query"]
 _I, _R = InstanceKeys.every(), RobotKeys.every()  # every key below comes from bus_schema
 OWNERS = (
     # perception turns the camera into a DL instance's input (ball seeking): it says the input and its spaces
@@ -92,15 +100,24 @@ def role_of(cn: str) -> str:
     return match.group(1)
 
 
-def access_control(identities: list[str]) -> dict:
-    """Zenoh's `access_control` section: each owned flow denied, on ingress at the router, to every
-    identity whose role does not own it."""
+def known(roster: list[str]) -> list[str]:
+    """The identities of a roster that access control names: each checked; a router's only if it is the
+    router's own (any other `router.*` gets nothing, as a stranger)."""
+    return [cn for cn in roster if role_of(cn) != "router" or cn == ROUTER_IDENTITY]
+
+
+def access_control(roster: list[str]) -> dict:
+    """Zenoh's `access_control` section: denied by default; each known identity of the roster allowed
+    everything, in and out, but the owned flows (OWNERS) its role does not own, which it may not send."""
     by_role: dict[str, list[str]] = {}
-    for cn in identities:
+    for cn in known(roster):
         by_role.setdefault(role_of(cn), []).append(cn)
-    rules, policies = [], []
+    if not by_role:
+        raise ValueError("an empty roster would shut every process out, the router included")
+    rules = [{"id": "known", "permission": "allow", "flows": ["ingress", "egress"], "messages": _EVERY_MESSAGE,
+              "key_exprs": ["**"]}]
+    policies = [{"id": "p-known", "rules": ["known"], "subjects": [f"s-{role}" for role in sorted(by_role)]}]
     for i, (_what, messages, keys, owners) in enumerate(OWNERS):
-        # the router forwards what its own access control let in: a peer takes that from it
         others = [role for role in by_role if role not in owners and role != "router"]
         if not others:
             continue
@@ -108,94 +125,48 @@ def access_control(identities: list[str]) -> dict:
                       "key_exprs": keys})
         policies.append({"id": f"p{i}", "rules": [f"r{i}"], "subjects": [f"s-{role}" for role in others]})
     subjects = [{"id": f"s-{role}", "cert_common_names": cns} for role, cns in sorted(by_role.items())]
-    return {"enabled": True, "default_permission": "allow", "rules": rules, "subjects": subjects,
+    return {"enabled": True, "default_permission": "deny", "rules": rules, "subjects": subjects,
             "policies": policies}
+
+
+def identity_folder(directory: Path, cn: str) -> Path:
+    """Where identity `cn`'s files are: its folder in a `dogged certs` directory, or `directory` itself
+    when it is that folder (all a person or a service is given)."""
+    directory = Path(directory)
+    return directory / cn if (directory / cn).is_dir() else directory
 
 
 def tls_section(directory: Path, cn: str) -> dict:
     """`transport/link/tls` for identity `cn`: its key and certificate, the CA, mutual TLS."""
-    directory = Path(directory)
-    key, cert, ca = directory / f"{cn}.key", directory / f"{cn}.pem", directory / "ca.pem"
+    folder = identity_folder(directory, cn)
+    key, cert, ca = folder / f"{cn}.key", folder / f"{cn}.pem", folder / "ca.pem"
     for path in (key, cert, ca):
         if not path.is_file():
-            raise FileNotFoundError(f"{path}: no such file (make it with `dogged certs {directory} ...`)")
+            raise FileNotFoundError(f"{path}: no such file (make it with `dogged certs DIR --identity {cn}`)")
     return {"root_ca_certificate": str(ca), "enable_mtls": True, "verify_name_on_connect": False,
             "listen_private_key": str(key), "listen_certificate": str(cert),
             "connect_private_key": str(key), "connect_certificate": str(cert)}
 
 
-def secure(conf, directory: Path, cn: str, enforce: bool = False) -> None:
-    """Turn a zenoh.Config into a TLS one for `cn`; a router or a peer (which other peers reach
-    directly) also enforces the access control of every identity in the directory."""
+def secure(conf, directory: Path, cn: str, roster: list[str] | None = None) -> None:
+    """Turn a zenoh.Config into a TLS one for `cn`; with a roster (a router, or a peer, which other peers
+    reach directly) it also enforces the access control of that roster."""
     conf.insert_json5("transport/link/tls", json.dumps(tls_section(directory, cn)))
-    if enforce:
-        conf.insert_json5("access_control", json.dumps(access_control(identities_in(directory))))
+    if roster is not None:
+        conf.insert_json5("access_control", json.dumps(access_control(roster)))
 
 
 def identities_in(directory: Path) -> list[str]:
-    return sorted(p.stem for p in Path(directory).glob("*.pem") if p.name != "ca.pem")
+    """The identities of a `dogged certs` directory now: its folders holding their own certificate."""
+    return sorted(p.parent.name for p in Path(directory).glob("*/*.pem") if p.stem == p.parent.name)
 
 
-# --- certificates ------------------------------------------------------------------------------
-def certificate(cn: str, key, valid_days: int, extensions, issuer=None):
-    """An X.509 certificate for `key`, named `cn`, signed by `issuer` = (its name, its key), or by
-    itself; valid from five minutes ago (clocks differ) for `valid_days`."""
-    from cryptography import x509
-    from cryptography.hazmat.primitives import hashes
-    from cryptography.x509.oid import NameOID
-
-    now = datetime.datetime.now(datetime.UTC)
-    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)])
-    issuer_name, issuer_key = issuer or (name, key)
-    builder = (x509.CertificateBuilder().subject_name(name).issuer_name(issuer_name)
-               .public_key(key.public_key()).serial_number(x509.random_serial_number())
-               .not_valid_before(now - datetime.timedelta(minutes=5))
-               .not_valid_after(now + datetime.timedelta(days=valid_days)))
-    for extension, critical in extensions:
-        builder = builder.add_extension(extension, critical=critical)
-    return builder.sign(issuer_key, hashes.SHA256())
-
-
-def key_pem(key) -> bytes:
-    """A private key as unencrypted PKCS#8 PEM (kept in a 0600 file, or never on disk)."""
-    from cryptography.hazmat.primitives import serialization
-    return key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                             serialization.NoEncryption())
-
-
-def make_certs(directory: Path, identities: list[str], days: int = 365) -> list[Path]:
-    """A CA (kept, or made once) and a key and certificate per identity, in `directory`."""
-    from cryptography import x509
-    from cryptography.hazmat.primitives import serialization
-    from cryptography.hazmat.primitives.asymmetric import ec
-    from cryptography.x509.oid import ExtendedKeyUsageOID
-
-    for cn in identities:  # all checked before anything is written
-        role_of(cn)
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-
-    def write(key, cert, stem: str) -> Path:
-        key_path, cert_path = directory / f"{stem}.key", directory / f"{stem}.pem"
-        key_path.write_bytes(key_pem(key))
-        key_path.chmod(0o600)
-        cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
-        return cert_path
-
-    if (directory / "ca.key").exists() and (directory / "ca.pem").exists():
-        ca_key = serialization.load_pem_private_key((directory / "ca.key").read_bytes(), None)
-        ca_cert = x509.load_pem_x509_certificate((directory / "ca.pem").read_bytes())
-    else:
-        ca_key = ec.generate_private_key(ec.SECP256R1())
-        ca_cert = certificate("dogged-ca", ca_key, 10 * days, [(x509.BasicConstraints(ca=True, path_length=0), True)])
-        write(ca_key, ca_cert, "ca")
-    loopback = [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]
-    leaf = [(x509.SubjectAlternativeName(loopback), False),
-            (x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]), False),
-            (x509.BasicConstraints(ca=False, path_length=None), True)]
-    written = []
-    for cn in identities:
-        key = ec.generate_private_key(ec.SECP256R1())
-        written.append(write(key, certificate(cn, key, days, leaf, issuer=(ca_cert.subject, ca_key)), cn))
-    return written
-
+def roster(directory: Path) -> list[str]:
+    """The identities this process's access control knows: $DOGGED_ROSTER (what `dogged up` read once and
+    handed to every process it starts), else those of `directory` as they are now."""
+    given = os.environ.get(ROSTER_ENV)
+    names = [cn for cn in given.split(",") if cn] if given else identities_in(directory)
+    if not names:
+        raise ValueError(f"no roster: a router or a peer enforcing access control needs ${ROSTER_ENV} (`dogged up` "
+                         f"sets it) or a `dogged certs` directory, and {directory} holds no identity's folder")
+    return names

@@ -1,16 +1,21 @@
-"""Who may say what (issue 12): a real router process with mutual TLS and the access control of
-services/security.py; real sessions with real certificates try what a stranger and a teacher would."""
+"""Who may say what (issues 12 and 30): a real router process with mutual TLS and the access control of
+services/security.py; real sessions with real certificates try what a stranger, a teacher, a certificate
+made after the router started and a router's certificate not the router's own would."""
 import json
+import logging
 import time
 
 import pytest
 import zenoh
 
-from services.security import access_control, identity, make_certs
+from services.certificates import make_certs
+from services.refusals import Refusals
+from services.security import access_control, identity
 from tests.harness import dogged, free_port, stop, wait_until
 
+# router.mallet: a router's certificate, made before the router started, that is not the router's own
 IDENTITIES = ["router.router", "platform.aibo", "arbitrator.arbitrator", "learner.learner", "teacher.alice",
-              "operator.bob", "supervisor.main", "perception.perception"]
+              "operator.bob", "supervisor.main", "perception.perception", "router.mallet"]
 
 
 def session_config(endpoint: str, directory, cn: str) -> zenoh.Config:
@@ -135,10 +140,14 @@ def test_identities_and_rules_are_checked():
         identity("wizard", "merlin")
     with pytest.raises(ValueError, match="not <role>.<name>"):
         access_control(["alice"])
-    rules = access_control(["teacher.alice", "arbitrator.arbitrator"])
+    rules = access_control(["teacher.alice", "arbitrator.arbitrator", "router.router", "router.mallet"])
     denied_to_teachers = {k for r, p in zip(rules["rules"], rules["policies"]) if "s-teacher" in p["subjects"]
-                          for k in r["key_exprs"]}
+                          and r["permission"] == "deny" for k in r["key_exprs"]}
     assert "dl/*/command" in denied_to_teachers and "dl/*/proposal/teacher/**" not in denied_to_teachers
+    # denied by default: only the roster's identities are named, and of the router role only the router's own
+    assert rules["default_permission"] == "deny"
+    assert {cn for s in rules["subjects"] for cn in s["cert_common_names"]} == {
+        "teacher.alice", "arbitrator.arbitrator", "router.router"}
 
 
 def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch):
@@ -165,3 +174,42 @@ def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch
         time.sleep(0.5)
         del held
     assert set(got) == {b"arbitrator"}
+
+
+def overheard(endpoint, directory, listener: str) -> list[str]:
+    """What `listener` hears of dl/** while the arbitrator commands and the platform reports."""
+    got = []
+    with zenoh.open(session_config(endpoint, directory, listener)) as session:
+        held = session.declare_subscriber("dl/**", lambda s: got.append(str(s.key_expr)))
+        time.sleep(0.5)
+        heard(endpoint, directory, "arbitrator.arbitrator", puts("dl/main/command"))
+        heard(endpoint, directory, "platform.aibo", puts("dl/main/input"))
+        del held
+    return sorted(set(got))
+
+
+def test_a_certificate_made_after_the_router_started_gets_nothing(secured):
+    """Signed by the same CA, but after the router read its roster: it matches no subject, so nothing it
+    says passes and nothing reaches it; the router's log tells the refusal, with its name."""
+    endpoint, directory, _ = secured
+    make_certs(directory, ["teacher.eve", "operator.mallory"])
+    assert heard(endpoint, directory, "teacher.eve", puts("dl/main/command", "dl/main/train",
+                                                          "dl/main/proposal/teacher/eve")) == []
+    assert heard(endpoint, directory, "operator.mallory", puts("dl/main/teach", "dl/main/arbitrator/select")) == []
+    assert overheard(endpoint, directory, "teacher.eve") == []
+    assert answers(endpoint, directory, "dogged/supervisor/main/down", "supervisor.main", "operator.mallory") \
+        == [b"owner"]
+    assert overheard(endpoint, directory, "teacher.alice") == ["dl/main/command", "dl/main/input"]  # on the roster
+    refusals = Refusals(IDENTITIES, "router", logging.getLogger("test"))
+    for line in (directory / "router.log").read_text().splitlines():
+        refusals.note(line)
+    assert {"teacher.eve", "operator.mallory"} <= set(refusals.counts())
+
+
+def test_a_router_certificate_not_the_routers_own_gets_nothing(secured):
+    """The rules never denied the router role: any `router.*` certificate could say anything."""
+    endpoint, directory, _ = secured
+    assert heard(endpoint, directory, "router.mallet", puts("dl/main/command", "dl/main/train", "dl/main/teach",
+                                                            "robot/aibo/state")) == []
+    assert overheard(endpoint, directory, "router.mallet") == []
+    assert answers(endpoint, directory, "dl/main/spaces", "platform.aibo", "router.mallet") == [b"owner"]

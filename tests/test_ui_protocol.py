@@ -11,7 +11,7 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import InvalidMessage, InvalidStatus
 
 from services.ui.protocol import BadMessage, parse
-from services.security import make_certs
+from services.certificates import make_certs
 from services.ui.server import UiServer
 from services.ui.tls import TlsError, fingerprint, server_tls
 from tests.harness import free_port
@@ -183,7 +183,7 @@ def test_off_loopback_the_page_is_https_with_the_printed_certificate_and_plain_h
 
 
 def test_a_given_certificate_serves_the_page_and_bad_ones_are_named(tmp_path):
-    [cert] = make_certs(tmp_path, ["operator.alice"])  # `dogged certs` makes one a browser can be told to trust
+    [cert] = make_certs(tmp_path / "certs", ["operator.alice"])  # `dogged certs` makes one a browser can trust
     key = cert.with_suffix(".key")
     context, printed = server_tls("127.0.0.1", cert, key)
     server, port, stop = serve(tls=context)
@@ -194,7 +194,7 @@ def test_a_given_certificate_serves_the_page_and_bad_ones_are_named(tmp_path):
     (tmp_path / "junk.pem").write_text("not a certificate")
     for args, named in [((cert, None), "--tls-key is needed too"), ((None, key), "--tls-cert is needed too"),
                         ((tmp_path / "none.pem", key), "--tls-cert"), ((tmp_path / "junk.pem", key), "--tls-cert"),
-                        ((cert, tmp_path / "ca.key"), "do not make a certificate chain")]:
+                        ((cert, tmp_path / "certs-ca" / "ca.key"), "do not make a certificate chain")]:
         with pytest.raises(TlsError, match=named):
             server_tls("127.0.0.1", *args)
 

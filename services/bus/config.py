@@ -29,8 +29,9 @@ def add_certificate_args(parser) -> None:
     # (dests of their own: `dogged certs` has an --identity of its own; no default of their own: the
     # parser's, which is "absent" where they follow a verb, see services/cli.py)
     parser.add_argument("--security", dest="cert_dir", metavar="DIR",
-                        help="a `dogged certs` directory holding ca.pem and this identity's key and certificate "
-                             "(default $DOGGED_SECURITY): mutual TLS to a secured router")
+                        help="this identity's folder of a `dogged certs` directory (ca.pem, its key and "
+                             "certificate), or that directory (default $DOGGED_SECURITY): mutual TLS to a secured "
+                             "router")
     parser.add_argument("--identity", dest="cert_identity", metavar="ROLE.NAME",
                         help="which certificate of it to show, e.g. teacher.alice (default $DOGGED_IDENTITY)")
 
@@ -57,9 +58,10 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
                  give_up_after: float | None = None, security: Path | None = None,
                  identity: str | None = None) -> zenoh.Config:
     """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With `security`
-    (a `dogged certs` directory; default $DOGGED_SECURITY) and `identity` (this process's certificate;
-    default $DOGGED_IDENTITY), mutual TLS, and the router and every peer enforcing who may say what
-    (services/security.py): peers link directly, so each checks what reaches it. A service (or a router
+    (a `dogged certs` directory, or one identity's folder of it; default $DOGGED_SECURITY) and `identity`
+    (this process's certificate; default $DOGGED_IDENTITY), mutual TLS, and the router and every peer
+    enforcing who may say what for the roster ($DOGGED_ROSTER, else the directory's identities;
+    services/security.py): peers link directly, so each checks what reaches it. A service (or a router
     linked to another machine's) keeps trying what it connects to; with `give_up_after` (seconds)
     opening fails instead."""
     secured = security or os.environ.get("DOGGED_SECURITY")
@@ -67,11 +69,15 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
     mode = resolved_mode(mode, connect)
     conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
     if secured:
-        from services.security import secure
+        from services.refusals import log_refusals
+        from services.security import roster, secure
         if not identity:
             raise ValueError("DOGGED_SECURITY is set but DOGGED_IDENTITY (this process's certificate) is not")
         # a peer links straight to other peers, so it enforces the access control itself, as the router does
-        secure(conf, Path(secured), identity, enforce=mode in ("router", "peer"))
+        enforce = mode in ("router", "peer")
+        secure(conf, Path(secured), identity, roster(Path(secured)) if enforce else None)
+        if enforce:  # what it refuses, its supervisor counts from its log
+            log_refusals()
         if mode == "peer":  # other peers link to it over TLS too
             listen = [endpoint.replace("tcp/", "tls/", 1) for endpoint in (listen or [LOCAL_LISTEN])]
     conf.insert_json5("mode", json.dumps(mode))

@@ -43,10 +43,11 @@ def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False
     return Supervisor(profile, echo).run()
 
 
-def certs(directory: str, profile_files: list[str] | None, identities: list[str]) -> int:
-    """`dogged certs DIR [--profile P ...] [--identity ROLE.NAME ...]`: the CA (made once) and a key and
-    certificate per identity; hand a person's pair (and ca.pem, never ca.key) to that person."""
-    from services.security import make_certs
+def certs(directory: str, profile_files: list[str] | None, identities: list[str], ca: str | None = None) -> int:
+    """`dogged certs DIR [--ca CADIR] [--profile P ...] [--identity ROLE.NAME ...]`: the CA (made once, in
+    CADIR, outside DIR) and a folder per identity in DIR; hand a person their folder (never CADIR)."""
+    from services.certificates import default_ca_dir, make_certs
+    from services.security import ROUTER_IDENTITY, role_of
     wanted = list(identities)
     for profile_file in reversed(profile_files or []):
         try:  # not yet the certificates it lacks: they are what this makes
@@ -58,13 +59,24 @@ def certs(directory: str, profile_files: list[str] | None, identities: list[str]
     if not wanted:
         print("dogged certs: nothing to make: give --profile and/or --identity", file=sys.stderr)
         return 2
+    wanted = list(dict.fromkeys(wanted))
+    ca_dir = Path(ca) if ca else default_ca_dir(Path(directory))
     try:
-        written = make_certs(Path(directory), list(dict.fromkeys(wanted)))
+        routers = [cn for cn in wanted if role_of(cn) == "router" and cn != ROUTER_IDENTITY]
+        if routers:
+            raise ValueError(f"{', '.join(routers)}: the router role is the router's own, {ROUTER_IDENTITY}, only "
+                             "(access control would give any other nothing)")
+        written = make_certs(Path(directory), wanted, ca_dir=ca_dir)
     except ValueError as err:
         print(f"dogged certs: {err}", file=sys.stderr)
         return 2
-    print(f"{len(written)} certificates in {directory} (CA: ca.pem; keep ca.key private): "
-          f"{', '.join(p.stem for p in written)}")
+    made = {p.stem for p in written}
+    kept = [cn for cn in wanted if cn not in made]
+    print(f"{len(written)} certificates in {directory}, a folder each (CA: {ca_dir}, keep it private): "
+          f"{', '.join(sorted(made)) or 'none'}" + (f"; kept: {', '.join(kept)}" if kept else ""))
+    if written:
+        print("a running profile knows only the identities it found at `dogged up`: restart it (dogged down, "
+              "dogged up) to admit these")
     return 0
 
 
@@ -145,8 +157,10 @@ def ps(args) -> int:
         ticks = " ".join(f"{k}={v:g}" for k, v in sorted(row.get("ticks", {}).items()))
         uptime = f"{row['uptime_s']:>8.0f}s" if row["state"] != "remote" else f"{'-':>9}"
         why = row.get("why") or (f"exit {row['exit']}" if row["state"] in ("failed", "backoff") else "")
+        refused = " ".join(f"{k}={v}" for k, v in sorted(row.get("refused", {}).items()))
+        refused = f"refused: {refused}" if refused else ""  # certificates not on the roster, which got nothing
         print(f"{row['name']:<16} {row['box']:<14}{row.get('host', '?')[:11]:<12}{row['pid']:>8}  {row['state']:<9}"
-              f"{row['restarts']:>9}{uptime}  {' '.join(filter(None, (why, rates, ticks)))}")
+              f"{row['restarts']:>9}{uptime}  {' '.join(filter(None, (why, rates, ticks, refused)))}")
     return 0
 
 

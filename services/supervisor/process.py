@@ -28,6 +28,7 @@ class ManagedProcess:
         self.last_exit: int | str | None = None  # an exit code, or "not ready" (stopped at its ready_timeout_s)
         self.tail: deque[str] = deque(maxlen=2000)
         self.killed = False  # its last stop took a SIGKILL
+        self.refusals = None  # services.refusals.Refusals: what its access control refused, read from its log
         self._lock = threading.Lock()
 
     @property
@@ -46,7 +47,10 @@ class ManagedProcess:
 
     def _pump(self, proc: subprocess.Popen) -> None:
         for raw in proc.stdout:
-            self._line(raw.decode(errors="replace").rstrip("\n"))
+            line = raw.decode(errors="replace").rstrip("\n")
+            self._line(line)
+            if self.refusals is not None:
+                self.refusals.note(line)
 
     def _line(self, text: str) -> None:
         with self._lock:
@@ -104,7 +108,8 @@ class ManagedProcess:
         alive = self.pid is not None
         return {"name": self.spec.name, "box": self.spec.box, "pid": self.pid or 0, "state": self.state,
                 "restarts": self.restarts, "uptime_s": round(time.monotonic() - self.started_at, 1) if alive else 0.0,
-                "exit": self.last_exit if self.last_exit is not None else ""}
+                "exit": self.last_exit if self.last_exit is not None else "",
+                **({"refused": self.refusals.counts()} if self.refusals is not None else {})}
 
 
 def dump_stacks_then_kill(proc: subprocess.Popen, grace: float = 1.0) -> int:

@@ -53,7 +53,7 @@ class Profile:
     log_dir: Path
     services: tuple[ServiceSpec, ...]
     low_latency: bool = False  # hold a PM QoS request so CPUs stay out of deep idle (services.realtime)
-    security: Path | None = None  # a `dogged certs` directory: mutual TLS and access control
+    security: Path | None = None  # a `dogged certs` directory (a folder per identity): mutual TLS and access control
     # where learners keep every pair they learned (their --state-dir unless they name one), so a restarted
     # learner comes back knowing what it was taught; None: learners without a --state-dir forget
     state_dir: Path | None = None
@@ -203,7 +203,14 @@ def _check_security(profile: Profile) -> None:
     for where, must, endpoint in endpoints:
         if endpoint is not None and endpoint.split("/", 1)[0] not in SECURE_SCHEMES:
             raise ProfileError(f"{where}: with zenoh.security {must} tls/... (or quic/...), got {endpoint!r}")
-    missing = [cn for cn in profile.identities() if not (profile.security / f"{cn}.pem").is_file()]
+    keys_on_top = sorted(p.name for p in profile.security.glob("*.key"))
+    if keys_on_top:  # the CA's, or every identity's side by side (before issue 30): any service could read them
+        raise ProfileError(f"zenoh.security: {profile.security} holds {', '.join(keys_on_top)} at its top: the CA's "
+                           "key belongs outside it and each identity's in its own folder; move ca.key and ca.pem "
+                           f"to {profile.security}-ca, remove the rest and run `dogged certs {profile.security} "
+                           f"--profile {profile.path}`")
+    missing = [cn for cn in profile.identities()
+               if not all((profile.security / cn / name).is_file() for name in (f"{cn}.pem", f"{cn}.key", "ca.pem"))]
     if not (profile.security / "ca.pem").is_file() or missing:
         raise ProfileError(f"zenoh.security: {profile.security} lacks {', '.join(missing) or 'ca.pem'}; make them "
                            f"with `dogged certs {profile.security} --profile {profile.path}`")

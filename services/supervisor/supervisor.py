@@ -26,6 +26,8 @@ from services.bus.lifecycle import StopFlag
 from services.boxes.router import CANNOT_LISTEN, ROUTING
 from services.bus.publishers import HOST
 from services.realtime import hold_low_latency
+from services.refusals import Refusals
+from services.security import ROSTER_ENV, identities_in
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 from services.supervisor.swap import swap_learner
@@ -63,6 +65,9 @@ class Supervisor:
         self.stop_flag: StopFlag | None = None     # Ctrl-C or SIGTERM, while run() runs
         self.swapping = False                      # a swap is under way: other verbs wait their turn
         self.up_since, self.announced = time.monotonic(), False
+        # the identities access control knows, read once: every process started, restarted or swapped in
+        # enforces this same roster; a certificate made later is refused until the profile restarts
+        self.roster = identities_in(profile.security) if profile.security is not None else []
 
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
@@ -70,15 +75,24 @@ class Supervisor:
                            "--connect", self.profile.router, *self.profile.service_args(spec))
 
     def secured(self, spec: ServiceSpec, identity: str) -> ServiceSpec:
-        """The spec with the profile's certificates and this service's identity in its environment."""
+        """The spec with its identity in its environment: that identity's folder only (no other key), and
+        the roster read at `up`."""
         if self.profile.security is None:
             return spec
-        env = {**spec.env, "DOGGED_SECURITY": str(self.profile.security), "DOGGED_IDENTITY": identity}
+        env = {**spec.env, "DOGGED_SECURITY": str(self.profile.security / identity), "DOGGED_IDENTITY": identity,
+               ROSTER_ENV: ",".join(self.roster)}
         return replace(spec, env=env)
+
+    def process(self, spec: ServiceSpec, command: list[str]) -> ManagedProcess:
+        """A process to manage; under security its log is read for what its access control refused."""
+        proc = ManagedProcess(spec, command, self.profile.log_dir, self.echo)
+        if self.profile.security is not None:
+            proc.refusals = Refusals(self.roster, spec.name, log)
+        return proc
 
     def add(self, spec: ServiceSpec, command: list[str] | None = None) -> ManagedProcess:
         spec = self.secured(spec, self.profile.identity(spec))
-        proc = ManagedProcess(spec, command or self.command_for(spec), self.profile.log_dir, self.echo)
+        proc = self.process(spec, command or self.command_for(spec))
         proc.ready_key = InstanceKeys(spec.instance).alive(spec.role, spec.name)
         self.procs[spec.name] = proc
         self.started.add(f"{spec.role}/{spec.name}")
@@ -325,12 +339,15 @@ class Supervisor:
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
         router = self.secured(ServiceSpec("router", "router", "", restart="on-failure"), "router.router")
         if prof.security is not None:  # this process's own session, before it opens
-            os.environ.update(DOGGED_SECURITY=str(prof.security), DOGGED_IDENTITY=f"supervisor.{prof.name}")
+            me = f"supervisor.{prof.name}"
+            os.environ.update(DOGGED_SECURITY=str(prof.security / me), DOGGED_IDENTITY=me)
+            log.info("roster of %d identities read now: %s (a certificate made later gets nothing until the "
+                     "profile restarts)", len(self.roster), ", ".join(self.roster))
         listen = sum((["--listen", e] for e in (prof.router, *prof.also_listen)), ["--token", router_token(prof.name)])
         if prof.upstream:
             listen += ["--connect", prof.upstream]
             log.info("linking to the router at %s (another machine runs it)", prof.upstream)
-        self.procs["router"] = ManagedProcess(router, box_command("router", *listen), prof.log_dir, self.echo)
+        self.procs["router"] = self.process(router, box_command("router", *listen))
         self.procs["router"].start()
         problem = self.router_problem()
         if problem:  # its session would wait for ever, or join whichever router holds the port

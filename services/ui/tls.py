@@ -17,7 +17,7 @@ import ssl
 import tempfile
 from pathlib import Path
 
-from services.security import certificate, key_pem
+from services.certificates import certificate, key_pem, write_private
 
 
 class TlsError(ValueError):
@@ -35,7 +35,7 @@ def server_tls(host: str, cert: Path | None = None, key: Path | None = None) -> 
     with tempfile.TemporaryDirectory() as folder:  # load_cert_chain reads files: a 0700 folder, removed at once
         cert_path, key_path = Path(folder) / "cert.pem", Path(folder) / "key.pem"
         cert_path.write_bytes(cert_pem)
-        key_path.write_bytes(key_pem)
+        write_private(key_path, key_pem)
         try:
             context.load_cert_chain(cert_path, key_path)
         except ssl.SSLError as err:
