@@ -104,6 +104,8 @@ SUPERVISOR = "dogged/supervisor"
 ROUTER = "dogged/router"
 EVERY_ALIVE = "dl/*/alive/*/*"    # every member's liveliness token, in every instance (a supervisor's view)
 EVERY_STATUS = "dl/*/status/*/*"  # every service's status, in every instance
+EVERY_VERB = f"{SUPERVISOR}/*/*"  # every verb of every profile's supervisor (access control)
+EVERY_ROUTER = f"{ROUTER}/*"  # every profile's router token (access control)
 
 
 def supervisor_key(profile: str, verb: str) -> str:

@@ -4,28 +4,60 @@ Every process that joins a secured router shows a certificate signed by the depl
 (`dogged certs`, services/certificates.py); anyone else cannot connect. A certificate's common name is
 its identity, `<role>.<name>` (`teacher.alice`, `platform.aibo`, `operator.bob`). Access control denies
 by default: only the identities on the deployment's roster (the identity folders of its `dogged certs`
-directory, read once by `dogged up` and handed to every process it starts) get anything, and each
-role says only its part, as the paper's Figure 1 draws it:
+directory, read once by `dogged up` and handed to every process it starts) get anything, and each is
+allowed exactly its role's part (services/permissions.py; `i` is any instance, `r` any robot, `*` any
+name or profile, and `{a,b}` either):
 
-| who | alone may |
-|---|---|
-| platform | publish inputs, applied commands, robot state, camera and clock; answer `spaces` |
-| chain, perception | publish an instance's inputs; answer its `spaces` |
-| handler | publish the robot's handle |
-| teacher | publish teacher proposals; hold teaching tokens |
-| learner | publish learner proposals; answer snapshot and history; hold learner tokens |
-| arbitrator | publish commands and training pairs; answer recent pairs; hold commanding tokens |
-| operator (a person), supervisor | switch teaching, select the learner, rebuild the arena, call the supervisor |
-| operator (a person, `dogged ui`) | also teach by teleoperation: teacher proposals and teaching tokens |
-| supervisor | answer the supervisor's verbs |
-| router (`router.router` only) | everything: a router forwards only what its own access control let in |
+| role | may | key expressions |
+|---|---|---|
+| platform | put | `dl/i/{input,applied,reward,episode}`, `robot/r/{state,camera,clock}` |
+| platform | put | `dl/i/status/{platform,aibo}/*` |
+| platform | token | `dl/i/alive/{platform,aibo}/*` |
+| platform | answer | `dl/i/spaces`, `robot/r/spaces` |
+| chain | put | `dl/i/input`, `dl/i/status/chain/*` |
+| chain | token | `dl/i/alive/{chain,platform}/*` |
+| chain | answer | `dl/i/spaces` |
+| chain | ask | `dl/i/spaces`, `robot/r/spaces` |
+| handler | put | `robot/r/handle`, `dl/i/status/handler/*` |
+| handler | token | `dl/i/alive/handler/*` |
+| perception | put | `dl/i/input`, `dl/i/status/perception/*` |
+| perception | token | `dl/i/alive/perception/*` |
+| perception | answer | `dl/i/spaces` |
+| perception | ask | `robot/r/spaces` |
+| teacher | put | `dl/i/proposal/{teacher,default}/*`, `dl/i/status/{teacher,default}/*` |
+| teacher | token | `dl/i/alive/{teacher,default,teaching}/*` |
+| teacher | ask | `dl/i/spaces` |
+| learner | put | `dl/i/proposal/learner/*`, `dl/i/status/learner/*` |
+| learner | token | `dl/i/alive/learner/*` |
+| learner | answer | `dl/i/learner/*/{snapshot,history}` |
+| learner | ask | `dl/i/spaces`, `dl/i/train/recent`, `dl/i/learner/*/{snapshot,history}` |
+| arbitrator | put | `dl/i/{command,train}`, `dl/i/status/arbitrator/*` |
+| arbitrator | token | `dl/i/alive/{arbitrator,commanding}/*` |
+| arbitrator | answer | `dl/i/train/recent` |
+| arbitrator | ask | `dl/i/spaces` |
+| recorder | put | `dl/i/status/recorder/*` |
+| recorder | token | `dl/i/alive/recorder/*` |
+| recorder | ask | `dl/i/spaces`, `robot/r/spaces` |
+| operator | put | `dl/i/{teach,record}`, `robot/r/arena`, `dl/i/proposal/teacher/*`, `dl/i/status/ui/*` |
+| operator | token | `dl/i/alive/{ui,teaching}/*` |
+| operator | ask | `dl/i/spaces`, `dogged/supervisor/*/*` |
+| supervisor | put | `dl/i/arbitrator/select` |
+| supervisor | token | `dogged/supervisor/*` |
+| supervisor | answer | `dogged/supervisor/*/*` |
+| router | each | every role's part above (it forwards what its own access control let in) |
+| router | token | also `dogged/router`, `dogged/router/*` |
 
-The recorder owns nothing: it only listens and asks. Everything else (subscribing, status, querying
-the owners) is open to every identity on the roster, and to no other: a certificate of the same CA
-made after the roster was read, or a `router.*` other than `router.router`, matches no subject and
-gets nothing, neither in nor out (services/refusals.py counts those refusals). Services join as peers
-that link to each other directly over mutual TLS (a hop fewer than through the router), so every peer
-enforces the same access control on what reaches it, as the router does on what its clients send.
+Put is Zenoh's put (nobody deletes), token a liveliness token, answer a queryable and its replies, ask a
+query. An operator is a person (the `dogged` verbs; `dogged ui`, which teleoperates as a teacher); only
+`router.router` is of the router role. Zenoh allows a message only when an allowed key expression
+includes its key, so a wildcard that reaches past a role's part (`dl/**`, `**`, `dl/main/alive/**`) is
+refused whole. Listening (subscribers, liveliness subscribers, liveliness queries) is open to every
+identity on the roster, and whatever passed a process's ingress may go out to any of them; to no other:
+a certificate of the same CA made after the roster was read, or a `router.*` other than `router.router`,
+matches no subject and gets nothing, neither in nor out (services/refusals.py counts those refusals).
+Services join as peers that link to each other directly over mutual TLS (a hop fewer than through the
+router), so every peer enforces the same access control on what reaches it, as the router does on what
+its clients send.
 """
 from __future__ import annotations
 
@@ -35,42 +67,21 @@ import os
 import re
 from pathlib import Path
 
-from bus_schema.keys import SUPERVISOR, InstanceKeys, RobotKeys
+from services.permissions import PARTS
 
 ROUTER_IDENTITY = "router.router"  # the one identity of the router role
 ROSTER_ENV = "DOGGED_ROSTER"  # the roster `dogged up` read, handed to every process it starts
-ROLES = ("platform", "chain", "handler", "perception", "teacher", "learner", "arbitrator", "recorder", "operator",
-         "supervisor", "router")
+ROLES = tuple(PARTS)  # every role of an identity (services/permissions.py)
 _IDENTITY = re.compile(r"^([a-z]+)\.([a-z0-9][a-z0-9_-]{0,63})$")
 
-# (what, key expressions, the roles that alone may do it); ACL message kinds of Zenoh 1.x
-_PUT, _ANSWER, _TOKEN, _ASK = ["put", "delete"], ["declare_queryable", "reply"], ["liveliness_token"], ["query"]
-_EVERY_MESSAGE = [*_PUT, *_ANSWER, *_TOKEN, *_ASK, "declare_subscriber", "declare_liveliness_subscriber",
-                  "liveliness_query"]
-_I, _R = InstanceKeys.every(), RobotKeys.every()  # every key below comes from bus_schema
-OWNERS = (
-    # perception turns the camera into a DL instance's input (ball seeking): it says the input and its spaces
-    ("inputs", _PUT, [_I.input], ("platform", "chain", "perception")),
-    ("spaces", _ANSWER, [_I.spaces], ("platform", "chain", "perception")),
-    ("robot streams", _PUT, [_R.state, _R.camera, _R.clock], ("platform",)),
-    ("robot spaces", _ANSWER, [_R.spaces], ("platform",)),
-    ("handle", _PUT, [_R.handle], ("handler",)),
-    # a person at the page (dogged ui, an operator) teaches by teleoperation: a teacher's proposals and token
-    ("teacher proposals", _PUT, [_I.proposal("teacher", "**")], ("teacher", "operator")),
-    ("default proposals", _PUT, [_I.proposal("default", "**")], ("teacher",)),
-    ("teaching tokens", _TOKEN, [_I.teaching("**")], ("teacher", "operator")),
-    ("teacher tokens", _TOKEN, [_I.alive("teacher", "**")], ("teacher",)),
-    ("learner proposals", _PUT, [_I.proposal("learner", "**")], ("learner",)),
-    ("learner state", _ANSWER, [_I.snapshot("*"), _I.history("*")], ("learner",)),
-    ("learner tokens", _TOKEN, [_I.alive("learner", "**")], ("learner",)),
-    ("applied commands", _PUT, [_I.applied], ("platform",)),
-    ("commands", _PUT, [_I.command, _I.train], ("arbitrator",)),
-    ("recent pairs", _ANSWER, [_I.train_recent], ("arbitrator",)),
-    ("commanding tokens", _TOKEN, [_I.commanding("**"), _I.alive("arbitrator", "**")], ("arbitrator",)),
-    ("operator verbs", _PUT, [_I.teach, _I.record, _I.select_learner, _R.arena], ("operator", "supervisor")),
-    ("supervisor verbs", _ASK, [f"{SUPERVISOR}/**"], ("operator", "supervisor")),
-    ("supervisor answers", _ANSWER, [f"{SUPERVISOR}/**"], ("supervisor",)),
-)
+# Zenoh 1.x's ACL messages for each kind of a role's part (services/permissions.py)
+MESSAGES = {"put": ["put"], "token": ["liveliness_token"], "answer": ["declare_queryable", "reply"],
+            "ask": ["query"]}
+# listening, in (a member's subscriber) and out (passed on to the others); and every part's messages out to
+# members. Each egress is needed: a secured profile of peers never gets ready without that of listening or
+# of declare_queryable, and tests/test_security_parts.py fails without that of put, token, reply or query
+_LISTEN = ["declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"]
+_DELIVERED = [m for kind in MESSAGES.values() for m in kind]
 
 
 def is_loopback(endpoint: str) -> bool:
@@ -107,23 +118,29 @@ def known(roster: list[str]) -> list[str]:
 
 
 def access_control(roster: list[str]) -> dict:
-    """Zenoh's `access_control` section: denied by default; each known identity of the roster allowed
-    everything, in and out, but the owned flows (OWNERS) its role does not own, which it may not send."""
+    """Zenoh's `access_control` section: denied by default; each known identity of the roster may listen,
+    be sent what passed ingress, and say exactly its role's part (PARTS), each kind of message on its
+    own key expressions."""
     by_role: dict[str, list[str]] = {}
     for cn in known(roster):
         by_role.setdefault(role_of(cn), []).append(cn)
     if not by_role:
         raise ValueError("an empty roster would shut every process out, the router included")
-    rules = [{"id": "known", "permission": "allow", "flows": ["ingress", "egress"], "messages": _EVERY_MESSAGE,
+    members = [f"s-{role}" for role in sorted(by_role)]
+    rules = [{"id": "listen", "permission": "allow", "flows": ["ingress", "egress"], "messages": _LISTEN,
+              "key_exprs": ["**"]},
+             # a message is checked where it comes in (the router, or a peer linked directly): going out to a
+             # member, whatever passed there is delivered
+             {"id": "deliver", "permission": "allow", "flows": ["egress"], "messages": _DELIVERED,
               "key_exprs": ["**"]}]
-    policies = [{"id": "p-known", "rules": ["known"], "subjects": [f"s-{role}" for role in sorted(by_role)]}]
-    for i, (_what, messages, keys, owners) in enumerate(OWNERS):
-        others = [role for role in by_role if role not in owners and role != "router"]
-        if not others:
-            continue
-        rules.append({"id": f"r{i}", "permission": "deny", "flows": ["ingress"], "messages": messages,
-                      "key_exprs": keys})
-        policies.append({"id": f"p{i}", "rules": [f"r{i}"], "subjects": [f"s-{role}" for role in others]})
+    policies = [{"id": "p-members", "rules": ["listen", "deliver"], "subjects": members}]
+    for role in sorted(by_role):
+        ids = []
+        for kind, keys in PARTS[role].kinds():
+            ids.append(f"{role}-{kind}")
+            rules.append({"id": ids[-1], "permission": "allow", "flows": ["ingress"], "messages": MESSAGES[kind],
+                          "key_exprs": list(keys)})
+        policies.append({"id": f"p-{role}", "rules": ids, "subjects": [f"s-{role}"]})
     subjects = [{"id": f"s-{role}", "cert_common_names": cns} for role, cns in sorted(by_role.items())]
     return {"enabled": True, "default_permission": "deny", "rules": rules, "subjects": subjects,
             "policies": policies}

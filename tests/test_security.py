@@ -1,6 +1,7 @@
 """Who may say what (issues 12 and 30): a real router process with mutual TLS and the access control of
 services/security.py; real sessions with real certificates try what a stranger, a teacher, a certificate
 made after the router started and a router's certificate not the router's own would."""
+import contextlib
 import json
 import logging
 import time
@@ -28,18 +29,28 @@ def session_config(endpoint: str, directory, cn: str) -> zenoh.Config:
     return conf
 
 
-@pytest.fixture(scope="module")
-def secured(tmp_path_factory):
+@contextlib.contextmanager
+def secured_router(tmp_path_factory, identities=IDENTITIES):
+    """A router enforcing the roster `identities` (each given a certificate): (its endpoint, the certs
+    directory, a directory of another CA's teacher.alice)."""
     directory = tmp_path_factory.mktemp("certs")
-    make_certs(directory, IDENTITIES)
+    make_certs(directory, identities)
     stranger = tmp_path_factory.mktemp("stranger")  # a valid-looking identity from another CA
     make_certs(stranger, ["teacher.alice"])
     endpoint = f"tls/127.0.0.1:{free_port()}"
     router = dogged("run", "router", "--listen", endpoint, log=directory / "router.log",
                     env={"DOGGED_SECURITY": str(directory), "DOGGED_IDENTITY": "router.router"})
     time.sleep(1.5)
-    yield endpoint, directory, stranger
-    stop(router)
+    try:
+        yield endpoint, directory, stranger
+    finally:
+        stop(router)
+
+
+@pytest.fixture(scope="module")
+def secured(tmp_path_factory):
+    with secured_router(tmp_path_factory) as router:
+        yield router
 
 
 def heard(endpoint, directory, speaker: str, actions) -> list[str]:
@@ -84,28 +95,29 @@ def test_the_owners_can(secured):
     assert heard(endpoint, directory, "operator.bob", puts("dl/main/teach")) == ["dl/main/teach"]
 
 
-def answers(endpoint, directory, key: str, owner: str, impostor: str) -> list[bytes]:
-    """The replies to a query on `key` when both the owner and an impostor declare a queryable."""
+def answers(endpoint, directory, key: str, owner: str, impostor: str, asker: str = "operator.bob") -> list[bytes]:
+    """The replies `asker` gets to a query on `key` when both the owner and an impostor declare a queryable."""
     with zenoh.open(session_config(endpoint, directory, owner)) as a, \
             zenoh.open(session_config(endpoint, directory, impostor)) as b:
         qa = a.declare_queryable(key, lambda q: q.reply(key, b"owner"))
         qb = b.declare_queryable(key, lambda q: q.reply(key, b"impostor"))
         time.sleep(0.5)
-        with zenoh.open(session_config(endpoint, directory, "operator.bob")) as asker:
-            replies = [r.ok.payload.to_bytes() for r in asker.get(key, target=zenoh.QueryTarget.ALL,
+        with zenoh.open(session_config(endpoint, directory, asker)) as asking:
+            replies = [r.ok.payload.to_bytes() for r in asking.get(key, target=zenoh.QueryTarget.ALL,
                                                                 consolidation=zenoh.ConsolidationMode.NONE, timeout=2.0)
                        if r.ok is not None]
         del qa, qb
     return sorted(replies)
 
 
-@pytest.mark.parametrize("key,owner", [("dl/main/spaces", "platform.aibo"),
-                                       ("dl/main/learner/learner/snapshot", "learner.learner"),
-                                       ("dl/main/learner/learner/history", "learner.learner"),
-                                       ("dogged/supervisor/main/down", "supervisor.main")])
-def test_only_the_owner_answers_the_queries_a_deployment_depends_on(secured, key, owner):
+@pytest.mark.parametrize("key,owner,asker", [("dl/main/spaces", "platform.aibo", "operator.bob"),
+                                             ("dl/main/learner/learner/snapshot", "learner.learner", "learner.learner"),
+                                             ("dl/main/learner/learner/history", "learner.learner", "learner.learner"),
+                                             ("dogged/supervisor/main/down", "supervisor.main", "operator.bob")])
+def test_only_the_owner_answers_the_queries_a_deployment_depends_on(secured, key, owner, asker):
+    """(Only a learner, warming for a hot-swap, asks another learner's snapshot and history.)"""
     endpoint, directory, _ = secured
-    assert answers(endpoint, directory, key, owner, "teacher.alice") == [b"owner"]
+    assert answers(endpoint, directory, key, owner, "teacher.alice", asker) == [b"owner"]
 
 
 def test_a_teacher_cannot_call_the_supervisor(secured):
@@ -141,18 +153,23 @@ def test_identities_and_rules_are_checked():
     with pytest.raises(ValueError, match="not <role>.<name>"):
         access_control(["alice"])
     rules = access_control(["teacher.alice", "arbitrator.arbitrator", "router.router", "router.mallet"])
-    denied_to_teachers = {k for r, p in zip(rules["rules"], rules["policies"]) if "s-teacher" in p["subjects"]
-                          and r["permission"] == "deny" for k in r["key_exprs"]}
-    assert "dl/*/command" in denied_to_teachers and "dl/*/proposal/teacher/**" not in denied_to_teachers
+    by_id = {r["id"]: r for r in rules["rules"]}
+    teachers = [by_id[i] for p in rules["policies"] if p["subjects"] == ["s-teacher"] for i in p["rules"]]
+    puts = {k for r in teachers if r["messages"] == ["put"] for k in r["key_exprs"]}
+    assert "dl/*/proposal/teacher/*" in puts and "dl/*/command" not in puts
+    # an allow-list: nothing is denied by a rule, and only listening and delivery are allowed on every key
+    assert {r["permission"] for r in rules["rules"]} == {"allow"}
+    assert {r["id"] for r in rules["rules"] if "**" in r["key_exprs"]} == {"listen", "deliver"}
+    assert by_id["deliver"]["flows"] == ["egress"]
     # denied by default: only the roster's identities are named, and of the router role only the router's own
     assert rules["default_permission"] == "deny"
     assert {cn for s in rules["subjects"] for cn in s["cert_common_names"]} == {
         "teacher.alice", "arbitrator.arbitrator", "router.router"}
 
 
-def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch):
-    """Services join as peers that link straight to each other over TLS (a hop fewer than through the
-    router); a teacher's peer linked straight to the robot's still cannot command it."""
+def robot_hears(secured, monkeypatch, speak) -> list[bytes]:
+    """What the robot's peer (platform.aibo) hears on dl/main/command while speak(arbitrator, alice) runs,
+    each of the three a peer linked straight to the others over TLS."""
     from services.bus.config import zenoh_config
     endpoint, directory, _ = secured
 
@@ -167,13 +184,21 @@ def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch
         others = {str(arbitrator.info.zid()), str(alice.info.zid())}
         wait_until(lambda: others <= {str(z) for z in robot.info.peers_zid()}, 10, "the peers to link directly", 0.1)
         time.sleep(0.5)
+        speak(arbitrator, alice)
+        time.sleep(0.5)
+        del held
+    return got
+
+
+def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch):
+    """Services join as peers that link straight to each other over TLS (a hop fewer than through the
+    router); a teacher's peer linked straight to the robot's still cannot command it."""
+    def speak(arbitrator, alice):
         for _ in range(5):
             arbitrator.put("dl/main/command", b"arbitrator")
             alice.put("dl/main/command", b"alice")
             time.sleep(0.05)
-        time.sleep(0.5)
-        del held
-    assert set(got) == {b"arbitrator"}
+    assert set(robot_hears(secured, monkeypatch, speak)) == {b"arbitrator"}
 
 
 def overheard(endpoint, directory, listener: str) -> list[str]:
