@@ -10,7 +10,8 @@ import zenoh
 
 from bus_schema import ControlReply, decode, supervisor_key
 from services.supervisor.profile import Profile, ServiceSpec
-from services.supervisor.supervisor import MAX_DEFERRED, Supervisor
+from services.supervisor.supervisor import Supervisor
+from services.supervisor.verbs import MAX_DEFERRED
 from services.supervisor.swap import _kept_args, swap_learner
 
 SLEEPS = [sys.executable, "-c", "import time; time.sleep(60)"]

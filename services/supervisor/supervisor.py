@@ -8,7 +8,6 @@ supervisor is a Zenoh client of its router: readiness is a service's liveliness 
 from __future__ import annotations
 
 import collections
-import itertools
 import logging
 import math
 import os
@@ -18,27 +17,21 @@ from dataclasses import replace
 
 import zenoh
 
-from bus_schema import (EVERY_ALIVE, EVERY_STATUS, ControlReply, InstanceKeys, Status, check_name, decode, encode,
-                        router_token, supervisor_key, supervisor_token)
+from bus_schema import (EVERY_ALIVE, EVERY_STATUS, InstanceKeys, Status, check_name, decode, router_token,
+                        supervisor_key, supervisor_token)
 from services.bus.config import zenoh_config
 from services.bus.inbox import Inbox
 from services.bus.lifecycle import StopFlag
 from services.boxes.router import CANNOT_LISTEN, ROUTING
-from services.bus.publishers import HOST
 from services.realtime import hold_low_latency
 from services.refusals import Refusals
 from services.security import ROSTER_ENV, identities_in
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
-from services.supervisor.swap import swap_learner
+from services.supervisor.verbs import Verbs
 
 log = logging.getLogger("dogged.supervisor")
-# the supervisor's verbs and the parameters each takes; anything else is refused with an answer
-VERBS = {"ps": set(), "logs": {"service", "lines"}, "swap": {"service", "spec"}, "down": set()}
-MAX_LOG_LINES = 10_000
-REMOTE_FORGOTTEN_S = 5.0  # a service not ours whose status stopped coming this long ago is left out of `ps`
 MAX_REMOTE = 64  # services not ours kept and listed (the freshest): forged statuses under many names bloat nothing
-MAX_DEFERRED = 64  # verbs held while a swap runs; beyond, each is answered at once that a swap is under way
 ROUTER_START_S = 15.0  # the profile's router says it listens within this, or `up` fails saying why
 SWITCH_OFF_BEFORE_DEATH = 1.0  # seconds: a teaching token that vanished this soon before its process died went with it
 
@@ -47,7 +40,7 @@ def box_command(box: str, *args: str) -> list[str]:
     return [sys.executable, "-m", "services.cli", "run", box, *args]
 
 
-class Supervisor:
+class Supervisor(Verbs):
     def __init__(self, profile: Profile, echo: bool = True):
         self.profile, self.echo = profile, echo
         self.procs: dict[str, ManagedProcess] = {}
@@ -193,77 +186,6 @@ class Supervisor:
             for forgotten in remote[:-MAX_REMOTE]:  # the stalest go first
                 del self.status[forgotten]
 
-    def on_control(self, verb: str, query: zenoh.Query, session) -> None:
-        try:
-            reply = self.answer(verb, query.parameters, session)
-        except Exception as err:  # noqa: BLE001 - a verb that goes wrong is an answer, never the end
-            log.exception("%s failed", verb)
-            reply = ControlReply(False, f"{verb} failed: {type(err).__name__}: {err}", {})
-        if not reply.ok:
-            self.refused[verb if verb in VERBS else "unknown"] += 1
-        query.reply(str(query.key_expr), encode(reply))
-
-    def answer(self, verb: str, params, session) -> ControlReply:
-        unknown = sorted({name for name, _ in params} - VERBS.get(verb, set()))
-        if verb not in VERBS:
-            return ControlReply(False, f"no verb {verb[:64]!r}; verbs: {', '.join(VERBS)}", {})
-        if unknown:
-            return ControlReply(False, f"{verb}: unknown parameter(s) {', '.join(unknown)[:200]}", {})
-        if self.swapping and verb not in ANSWERED_DURING_SWAP:
-            return ControlReply(False, f"{verb}: a hot-swap is under way and {MAX_DEFERRED} verbs wait for it; "
-                                       "ask again after it", {})
-        if verb == "ps":
-            return ControlReply(True, "", {"profile": self.profile.name, "services": self.ps(),
-                                           "refused": dict(self.refused)})
-        if verb == "logs":
-            lines = params.get("lines", "50")
-            if not (lines.isdigit() and 1 <= int(lines) <= MAX_LOG_LINES):
-                return ControlReply(False, f"logs: lines must be an integer 1..{MAX_LOG_LINES}, got {lines[:32]!r}", {})
-            return self.logs(params.get("service", ""), int(lines))
-        if verb == "swap":
-            return self.swap(session, params.get("service", ""), params.get("spec", ""))
-        self.stopping = True
-        return ControlReply(True, f"stopping profile {self.profile.name}", {})
-
-    def ps(self) -> list[dict]:
-        """Its own services, then every other service whose status came in the last few seconds
-        (a teacher on another machine, another profile's share of the deployment), with its host."""
-        rows = []
-        for proc in self.procs.values():
-            row = proc.describe()
-            status = self.status_of(proc.spec)
-            row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status),
-                       instance=proc.spec.instance)
-            error = status.get("state", {}).get("error")
-            if error and isinstance(error, str) and "why" not in row:  # a service says what it cannot do
-                row["why"] = error[:200]
-            rows.append(row)
-        for spec in self.waiting:
-            why = "after " + ", ".join(f"{a} ({self.procs[a].state})" if a in self.procs else a for a in spec.after)
-            rows.append(not_running_row(spec.name, spec.box, "waiting", why=why, instance=spec.instance))
-        now = time.monotonic()
-        for key, status in sorted(self.status.items()):
-            if key not in self.started and now - status["seen"] < REMOTE_FORGOTTEN_S:
-                role, name = key.split("/", 1)
-                rows.append(not_running_row(name, role, "remote", pid=status["pid"], rates=status["rates"],
-                                            host=status["host"], ticks=tick_counters(status),
-                                            instance=status["instance"]))
-        return rows
-
-    def logs(self, service: str, lines: int) -> ControlReply:
-        if service not in self.procs:
-            return ControlReply(False, f"no service {service!r}; services: {', '.join(self.procs)}", {})
-        tail = list(self.procs[service].tail)[-lines:]
-        return ControlReply(True, "\n".join(tail), {"path": str(self.procs[service].log_path)})
-
-    # --- hot-swap ---------------------------------------------------------------------------
-    def swap(self, session, service: str, spec_text: str) -> ControlReply:
-        self.swapping = True
-        try:
-            return swap_learner(self, session, service, spec_text)
-        finally:
-            self.swapping = False
-
     # --- what a swap asks of the supervisor ---------------------------------------------------
     def ready_learners(self) -> list[ManagedProcess]:
         return [p for p in self.procs.values() if p.spec.box == "learner" and p.state == "ready"]
@@ -295,24 +217,6 @@ class Supervisor:
                 return False
         self.stopping = True
         return False
-
-    def handle_events(self, session) -> None:
-        """What came in for up to 50 ms; during a swap, another swap waits (answered after it, in order);
-        `ps` and `logs` are answered at once, and `down` honoured at once: the swap then gives up and its
-        new learner is stopped."""
-        first = [self.deferred.pop(0)] if self.deferred and not self.swapping else []
-        for item in itertools.chain(first, self.inbox.drain(0.0 if first else 0.05)):
-            if self.swapping and held_during_swap(item) and len(self.deferred) < MAX_DEFERRED:
-                self.deferred.append(item)
-            else:  # (a verb past MAX_DEFERRED during a swap is answered: busy)
-                self.on_event(item, session)
-
-    def answer_deferred(self) -> None:
-        """Verbs still held when the profile stops are told so, not left to time out."""
-        for _, key, query, _ in self.deferred:
-            verb = key.rsplit("/", 1)[-1]
-            query.reply(str(query.key_expr), encode(ControlReply(False, f"{verb}: the profile is stopping", {})))
-        self.deferred.clear()
 
     # --- the run ----------------------------------------------------------------------------
     def router_problem(self) -> str:
@@ -383,29 +287,6 @@ class Supervisor:
         else:
             log.info("stopped; no process left")
         return 0
-
-
-ANSWERED_DURING_SWAP = ("down", "ps", "logs")  # down stops it; ps and logs only read
-
-
-def held_during_swap(item: tuple) -> bool:
-    """Whether a bus event waits for a swap to end: a verb that would change what the swap changes
-    (another swap); `down` is honoured at once, and `ps` and `logs` only read, so they are answered
-    at once too (held, the CLI gave up after its 5 s while a long swap ran)."""
-    tag, key = item[0], item[1]
-    return tag == "control" and key.rsplit("/", 1)[-1] not in ANSWERED_DURING_SWAP
-
-
-def not_running_row(name: str, box: str, state: str, **fields) -> dict:
-    """A `ps` row for a service this supervisor does not run: one still waiting, or another machine's."""
-    return {"name": name, "box": box, "pid": 0, "state": state, "restarts": 0, "uptime_s": 0.0, "exit": "",
-            "rates": {}, "host": HOST, **fields}
-
-
-def tick_counters(status: dict) -> dict:
-    """A platform's lost and stale ticks, as its status counts them."""
-    counters = status.get("counters", {})
-    return {k: counters[k] for k in ("lost_ticks", "stale_commands") if k in counters}
 
 
 def numeric_rates(rates) -> dict:
