@@ -13,7 +13,9 @@ into hops as an observer on the bus sees them (`hop_us_*`, benchmarks/lib/hops.p
 
 Then what users run (issue 34): each profile of deploy/ as it is, with its wired learner, while a teacher
 teaches and while the student drives (`<profile>_tick_*`, beside `<profile>_tick_floor_ms`, the Zenoh round
-trip at its rate times half its hops; benchmarks/lib/profile_ticks.py), and each learner's cost per call at
+trip at its rate times half its hops; benchmarks/lib/profile_ticks.py), the deploy profiles secured by this
+user's own identities as they run by default, and mirroring again with security = "off" (`mirroring_off_*`;
+`security_tick_p50_ratio[_teaching]`: secured over unsecured, same run), and each learner's cost per call at
 the profiles' shapes (`learner_*`, benchmarks/lib/learner_costs.py). Prints tables; the last line is one JSON
 object of the figures.
 """

@@ -29,6 +29,7 @@ import numpy as np  # noqa: E402
 
 from bus_schema import Frame, Proposal, decode  # noqa: E402
 from services.demo.page import start_ballseek_with_page, teach_click_to_bus  # noqa: E402
+from services.own_identities import page_address  # noqa: E402
 from services.ui.headless import open_page  # noqa: E402
 from tests.harness import free_port, wait_until  # noqa: E402
 
@@ -85,7 +86,7 @@ def main(presses: int, seconds: float, cycles: int) -> dict:
         port = free_port()
         run = start_ballseek_with_page(Path(tmp) / "run", f"tcp/127.0.0.1:{free_port()}", port)
         try:
-            with open_page(f"http://127.0.0.1:{port}/") as page:
+            with open_page(page_address(port, wait_s=30)) as page:
                 page.wait_for_selector("#ears[data-mode]", timeout=30_000)
                 time.sleep(2.0)
                 shown, bus, fps, fps_bus = frames(run, page, seconds)

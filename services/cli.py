@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from services.boxes import BOX_ROLES
+from services.own_identities import ROLE_ENV
 
 BOXES = {name: f"services.boxes.{name}" for name in BOX_ROLES}
 
@@ -20,6 +22,8 @@ def run_box(argv: list[str]) -> int:
     if not argv or argv[0] not in BOXES:
         print(f"usage: dogged run <box> [options]; boxes: {', '.join(BOXES)}", file=sys.stderr)
         return 2
+    # on this user's own secured profile, a box run by hand shows this user's identity of its role
+    os.environ.setdefault(ROLE_ENV, BOX_ROLES[argv[0]])
     return importlib.import_module(BOXES[argv[0]]).cli(argv[1:])
 
 

@@ -1,9 +1,13 @@
 import services  # noqa: F401  (first: one BLAS thread per process, see services/__init__.py)
+import os
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import pytest
 
+from services.own_identities import HOME_ENV
 from tests.harness import REPO, dogged, free_port, stop
 
 COMPILE_EVERY_LEARNER = ("import services; from services.learners import LEARNERS, compile_kernels, make_learner; "
@@ -11,9 +15,13 @@ COMPILE_EVERY_LEARNER = ("import services; from services.learners import LEARNER
 
 
 def pytest_sessionstart(session):
-    """Every learner's kernels compiled into numba's cache once, in one process, before any test: processes
-    that each compile them cold can round differently (a replay then differed from the live learner by
-    up to 3e-9), while processes that load the same cache agree bit for bit."""
+    """This user's own identities (what a profile without zenoh.security runs with) in a folder of the
+    session's, never the person's own; and every learner's kernels compiled into numba's cache once, in
+    one process, before any test: processes that each compile them cold can round differently (a replay
+    then differed from the live learner by up to 3e-9), while processes that load the same cache agree
+    bit for bit."""
+    own = Path(tempfile.mkdtemp(prefix="dogged-home-"))  # 0700, made by mkdtemp
+    os.environ[HOME_ENV] = str(own)
     subprocess.run([sys.executable, "-c", COMPILE_EVERY_LEARNER], cwd=REPO, check=True, capture_output=True)
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import collections
+import contextlib
 import os
 import socket
 import subprocess
@@ -17,6 +18,7 @@ from bus_schema import EVERY_STATUS, Status, decode
 from services import waiting
 from services.bus.config import zenoh_config
 from services.bus.publishers import wait_matching
+from services.own_identities import HOME_ENV, wait_announced
 from services.supervisor.process import dump_stacks_then_kill
 from services.ui.headless import missing_chromium
 
@@ -55,9 +57,17 @@ def free_port() -> int:
 
 
 def dogged(*args: str, log: Path | None = None, env: dict | None = None) -> subprocess.Popen:
+    """`dogged <args>` started; for `up`, returned once a profile secured by this user's own identities has
+    announced its router (a test's session opened before would speak plain TCP to a TLS router), or up
+    has ended (a profile it refused)."""
     out = open(log, "ab") if log else subprocess.DEVNULL
-    return subprocess.Popen([sys.executable, "-m", "services.cli", *args], cwd=REPO, stdout=out,
+    proc = subprocess.Popen([sys.executable, "-m", "services.cli", *args], cwd=REPO, stdout=out,
                             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env={**os.environ, **(env or {})})
+    if args and args[0] == "up" and not (env or {}).get(HOME_ENV):
+        router = args[args.index("--router") + 1] if "--router" in args else None
+        with contextlib.suppress(RuntimeError, ValueError):  # it exited, or refused the profile: the test reads why
+            wait_announced(Path(args[1]), router, proc)
+    return proc
 
 
 def dogged_ok(*args: str, endpoint: str, timeout: float = 60) -> subprocess.CompletedProcess:

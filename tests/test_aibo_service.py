@@ -86,6 +86,13 @@ def arena_on_request(probe: Probe, states, router: str) -> None:
     assert np.allclose(latest(states, RobotState).balls["pink"][:2], [0.7, 0.2], atol=0.05)
     refused = dogged_ok("arena", "--ball", "blue=0.5,0", endpoint=router, timeout=30)
     assert refused.returncode == 1 and "did not confirm the arena reset" in refused.stderr
+    # no ball given: confirmed by the simulated time starting again, not by any state coming
+    resets = probe.counter("aibo/aibo", "resets")
+    seeded = dogged_ok("arena", "--seed", "5", endpoint=router)
+    assert seeded.returncode == 0 and "arena 5: balls as seeded" in seeded.stdout, seeded.stderr
+    probe.wait_for(lambda: probe.counter("aibo/aibo", "resets") == resets + 1, 10, "the reset counted")
+    out_of_range = dogged_ok("arena", "--seed", str(2 ** 32), endpoint=router)
+    assert out_of_range.returncode == 2 and "seed" in out_of_range.stderr, out_of_range.stderr
     # hostile but well-formed resets are refused before anything is reset (seed -1 crashed the Aibo
     # after it had rebuilt the world: issue 12)
     resets = probe.counter("aibo/aibo", "resets")

@@ -2,6 +2,7 @@ from pathlib import Path
 
 import pytest
 
+from services.own_identities import identities_dir
 from services.supervisor.profile import ProfileError, load_profile
 from tests.harness import REPO
 
@@ -74,8 +75,26 @@ def test_state_logs_and_recordings_are_beside_the_profile_wherever_up_is_run(tmp
 
 def test_up_says_where_state_logs_and_recordings_go(tmp_path):
     p = load_profile(write(tmp_path, "[profile]\nname='p'\nrecord=false\n" + LEARNERS))
+    own = identities_dir()
     assert p.where_things_go() == (f"state: {tmp_path}/runs/p/state\nlogs: {tmp_path}/runs/p/logs\n"
-                                   "recordings: not recorded")
+                                   f"recordings: not recorded\nsecurity: this user's own identities in {own} "
+                                   "(the router at tls/127.0.0.1:7447)")
+
+
+def test_a_profile_is_secured_by_this_users_own_identities_unless_it_says_off(tmp_path):
+    """Loopback let every local user drive the default profile: without zenoh.security a profile now runs
+    over TLS on the same port, with identities of this user's own folder."""
+    p = load_profile(write(tmp_path, "[zenoh]\nrouter='tcp/127.0.0.1:7600'\nalso_listen=['tcp/127.0.0.1:7601']\n"
+                                     + LEARNERS))
+    assert (p.security, p.own_security, p.router, p.also_listen) == (
+        identities_dir(), True, "tls/127.0.0.1:7600", ("tls/127.0.0.1:7601",))
+    off = load_profile(write(tmp_path, "[zenoh]\nsecurity='off'\n" + LEARNERS))
+    assert (off.security, off.own_security, off.router) == (None, False, "tcp/127.0.0.1:7447")
+    assert "security: off: anyone on this machine may drive the robot" in off.where_things_go()
+    with pytest.raises(ProfileError, match='zenoh.security: expected "own" .* got ""'):
+        load_profile(write(tmp_path, "[zenoh]\nsecurity=''\n" + LEARNERS))
+    with pytest.raises(ProfileError, match="--join: another machine's router shares no CA"):
+        load_profile(write(tmp_path, LEARNERS), join="tls/10.0.0.2:7447")
 
 
 def test_a_services_arguments_are_read_as_its_box_reads_them(tmp_path):

@@ -10,6 +10,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from websockets.asyncio.client import connect
 from bus_schema import Applied, Command, Input, TrainingPair, decode, encode
 from services.bus.config import zenoh_config
 from services.certificates import make_certs
+from services.own_identities import page_address
 from services.security import is_loopback
 from services.supervisor.profile import ProfileError, load_profile
 from services.supervisor.supervisor import Supervisor
@@ -54,7 +56,8 @@ async def at_the_page(port: int) -> list[str]:
     """A person at the page of a secured profile: teaching switched off and on, then driving; what the
     page showed at each step (the bus under access control carries the operator's every action)."""
     seen = []
-    async with connect(f"ws://127.0.0.1:{port}/ws") as ws:
+    address = urlsplit(page_address(port, wait_s=30))  # a secured profile's page needs its token on loopback too
+    async with connect(f"ws://{address.netloc}/ws?{address.query}") as ws:
 
         async def until(what, condition, send=None, timeout=30.0):
             deadline = asyncio.get_running_loop().time() + timeout

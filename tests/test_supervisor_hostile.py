@@ -21,7 +21,9 @@ def ask(session, verb: str, parameters: str = "") -> ControlReply:
 def test_hostile_queries_and_a_forged_status_leave_the_supervisor_running(tmp_path):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     profile = tmp_path / "suptest.toml"
-    profile.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state"))
+    # a stranger the bus lets in (security off; a secured bus refuses its puts at the door): what this tries
+    # is the supervisor's own checks
+    profile.write_text(PROFILE.format(logs=tmp_path / "logs", state=tmp_path / "state") + '[zenoh]\nsecurity = "off"\n')
     sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
     try:
         wait_until(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()), 90, "ready")

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+from services.own_identities import secured_endpoint
 from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, stop, wait_until
 
 PROFILE = """
@@ -59,7 +60,8 @@ def test_a_port_another_program_holds_fails_up_within_seconds(tmp_path):
         endpoint = f"tcp/127.0.0.1:{held.getsockname()[1]}"
         code, took, said = held_up(tmp_path, endpoint)
     assert code == 1 and took < 20.0, f"exit {code} after {took:.0f} s:\n{said[-2000:]}"
-    assert f"the router cannot listen on {endpoint}" in said and "Address already in use" in said, said[-2000:]
+    assert f"the router cannot listen on {secured_endpoint(endpoint)}" in said, said[-2000:]
+    assert "Address already in use" in said, said[-2000:]
     assert "[platform]" not in said and "nothing started" in said, said[-2000:]
 
 
@@ -74,14 +76,14 @@ def test_a_port_another_profiles_router_holds_is_not_joined(tmp_path):
     finally:
         stop(other)
     assert code == 1 and took < 20.0, f"exit {code} after {took:.0f} s:\n{said[-2000:]}"
-    assert f"the router cannot listen on {endpoint}" in said, said[-2000:]
+    assert f"the router cannot listen on {secured_endpoint(endpoint)}" in said, said[-2000:]
     assert "[platform]" not in said, "its services did not start on the other profile's bus"
 
 
 def test_a_mistyped_endpoint_fails_up_within_seconds(tmp_path):
     code, took, said = held_up(tmp_path, "tcp/127.0.0.1:99999")
     assert code == 1 and took < 20.0, f"exit {code} after {took:.0f} s:\n{said[-2000:]}"
-    assert "the router cannot listen on tcp/127.0.0.1:99999" in said, said[-2000:]
+    assert "the router cannot listen on tls/127.0.0.1:99999" in said, said[-2000:]
 
 
 def test_a_second_profile_on_the_first_profiles_endpoint_refuses_and_never_joins_its_bus(tmp_path):
@@ -99,7 +101,8 @@ def test_a_second_profile_on_the_first_profiles_endpoint_refuses_and_never_joins
         probe.wait_for_fresh_status("platform/platform")  # the probe hears the first profile's bus
         assert "platform/intruder" not in probe.status, f"the second profile joined the first's bus:\n{said[-2000:]}"
         assert code == 1 and took < 20.0, f"exit {code} after {took:.0f} s:\n{said[-2000:]}"
-        assert f"the router cannot listen on {endpoint}" in said and "Address already in use" in said, said[-2000:]
+        assert f"the router cannot listen on {secured_endpoint(endpoint)}" in said, said[-2000:]
+        assert "Address already in use" in said, said[-2000:]
         assert "nothing started" in said and "[intruder]" not in said, said[-2000:]
         after = ps(endpoint)
         assert after["profile"] == "first" and [r["name"] for r in after["services"]] == ["router", "platform"]

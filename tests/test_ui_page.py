@@ -10,6 +10,7 @@ import pytest
 
 from bus_schema import Proposal, TrainingPair, decode
 from services.demo.page import start_ballseek_with_page, teach_click_to_bus
+from services.own_identities import page_address
 from services.ui.headless import open_page
 from tests.harness import Probe, free_port, needs_chromium, wait_until
 
@@ -41,7 +42,7 @@ def live(tmp_path_factory):
     held, probe = run.record(run.keys.train), Probe(run.endpoint)  # (the subscriber lives while held)
     train = run.recorded[run.keys.train]
     try:
-        with open_page(f"http://127.0.0.1:{port}/", before=LISTEN) as page:
+        with open_page(page_address(port, wait_s=30), before=LISTEN) as page:
             page.wait_for_selector("#ears[data-mode]", timeout=30_000)
             yield run, page, train, run_dir, probe
     finally:

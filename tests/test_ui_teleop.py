@@ -9,6 +9,7 @@ from services.bus.queries import ask_owner
 from services.demo.live import decoded
 from services.demo.page import KeyboardPerson, PageStage, start_ballseek_with_page
 from services.experiments import ballseek_protocol as protocol
+from services.own_identities import page_address
 from services.ui.headless import open_page
 from tests.harness import free_port, needs_chromium
 
@@ -43,7 +44,7 @@ def test_a_person_teaches_ball_seeking_with_the_arrow_keys(tmp_path):
         payload, problem = ask_owner(run.session, run.keys.spaces, 5.0)
         assert payload is not None, problem
         spaces = Spaces.from_dict(decode(SpacesMessage, payload, run.keys.spaces).spaces)
-        with open_page(f"http://127.0.0.1:{port}/") as page:
+        with open_page(page_address(port, wait_s=30)) as page:
             page.wait_for_selector("#ears[data-mode]", timeout=30_000)
             stage = PageStage(run, RATE_HZ, KeyboardPerson(page, spaces))
             protocol.teach(stage, True, TEACH_S, seed=0)

@@ -33,6 +33,9 @@ LESSONS = {"mirroring": (("main", "mirror"),), "ballseek": (("main", ""),),
 ARENA = (3, {"pink": [0.9, 0.3], "orange": None})  # README's `dogged arena --seed 3 --ball pink=0.9,0.3 ...`
 SETTLE_S = 1.0  # after a switch, before the phase counts: the teaching token reaches the arbitrator
 PHASES = ("teaching", "student")
+# each profile as deployed (secured by this user's own identities), and mirroring again right after with
+# security = "off": the tick's cost of security, measured in the same run
+RUNS = (("mirroring", ""), ("mirroring", "off"), *((name, "") for name in PROFILES[1:]))
 
 
 @dataclass(frozen=True)
@@ -61,12 +64,18 @@ def member(profile: Profile, box: str, instance: str) -> str:
     return f"{spec.role}/{spec.name}"
 
 
-def watch(name: str, work: Path, seconds: dict[str, float]) -> tuple[Profile, dict[str, Phase]]:
-    """Bring the profile up, teach for seconds['teaching'], let the student drive for seconds['student']."""
-    run_dir = work / name
+def watch(name: str, work: Path, seconds: dict[str, float], security: str = "") -> tuple[Profile, dict[str, Phase]]:
+    """Bring the profile up, teach for seconds['teaching'], let the student drive for seconds['student'];
+    `security`: its zenoh.security instead of the profile's (the deploy profiles name none: this user's own)."""
+    run_dir = work / (f"{name}-{security}" if security else name)
     run_dir.mkdir(parents=True)
     path = run_dir / f"{name}.toml"
     shutil.copy(DEPLOY / f"{name}.toml", path)
+    if security:
+        text = path.read_text()
+        if "\n[zenoh]\n" not in text or "security" in text:
+            raise ValueError(f"deploy/{name}.toml: expected a [zenoh] table without security, to set it")
+        path.write_text(text.replace("\n[zenoh]\n", f'\n[zenoh]\nsecurity = "{security}"\n', 1))
     profile = load_profile(path)
     platform = platform_of(profile)
     lower = platform.options.command_from or platform.instance
@@ -151,11 +160,15 @@ def measure(work: Path, quick: bool, floor_rtt_ms: dict[float, float]) -> tuple[
     """Every profile in turn; `floor_rtt_ms`: the Zenoh round trip's median at each profile's rate."""
     seconds = {"teaching": 10.0, "student": 10.0} if quick else {"teaching": 60.0, "student": 30.0}
     rows, figures = [], {}
-    for name in PROFILES:
-        profile, phases = watch(name, work, seconds)
-        more_rows, more = summarise(name, profile, phases, floor_rtt_ms[platform_of(profile).options.rate])
+    for name, security in RUNS:
+        profile, phases = watch(name, work, seconds, security)
+        label = f"{name}_{security}" if security else name
+        more_rows, more = summarise(label, profile, phases, floor_rtt_ms[platform_of(profile).options.rate])
         rows += more_rows
         figures |= more
+    for suffix in ("", "_teaching"):  # what security (mutual TLS, access control at every peer) costs the tick
+        secured, off = figures["mirroring_tick_p50_ms" + suffix], figures["mirroring_off_tick_p50_ms" + suffix]
+        figures["security_tick_p50_ratio" + suffix] = round(secured / off, 3)
     return rows, figures
 
 

@@ -1,11 +1,13 @@
 """The ui box (`dogged ui`): a page in a browser where a person watches, teaches, corrects and
-teleoperates the robot (services/ui). On loopback it needs no login; on any other address the
-page's socket needs the token printed at start, and the page is served over HTTPS (a certificate
+teleoperates the robot (services/ui). On loopback of an unsecured bus it needs no login; on a secured
+bus (every profile unless it says security = "off") or any other address the page's socket needs the
+token printed at start, and off loopback the page is served over HTTPS (a certificate
 given with --tls-cert / --tls-key, else one made for the run, whose fingerprint is printed)."""
 from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 import secrets
 import socket
 import ssl
@@ -17,9 +19,10 @@ import zenoh
 
 from bus_schema import InstanceKeys, check_name
 from services.boxes.common import fetch_spaces
-from services.bus.config import add_bus_args, config_from_args
+from services.bus.config import add_bus_args, config_from_args, own_profile
 from services.bus.lifecycle import StopFlag, setup_logging
 from services.bus.publishers import StatusPublisher
+from services.own_identities import forget_page, note_page
 from services.security import is_loopback
 from services.ui.bridge import FRAME_HEADER, Bridge
 from services.ui.server import UiServer
@@ -28,10 +31,12 @@ from services.ui.teleop import TELEOP_REFRESH_S
 
 
 def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, port: int, name: str = "ui",
-         tls: ssl.SSLContext | None = None, fingerprint: str = "") -> int:
+         tls: ssl.SSLContext | None = None, fingerprint: str = "", secured: bool = False) -> int:
+    """`secured`: the bus lets in identities only, so the page does too: on loopback as well, its socket
+    needs the token, which this user finds in their own folder (services/own_identities.py)."""
     log = setup_logging("ui", name)
     stop, keys, done = StopFlag(), InstanceKeys(instance), threading.Event()
-    token = None if is_loopback(f"tcp/{host}:{port}") else secrets.token_urlsafe(18)
+    token = None if is_loopback(f"tcp/{host}:{port}") and not secured else secrets.token_urlsafe(18)
     if token and tls is None:
         log.warning("--plain-http off loopback: the token and all the page sends cross the network in clear")
     with zenoh.open(conf) as session:
@@ -61,8 +66,10 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
             certificate = f"; certificate SHA-256 {fingerprint}" if tls else ""
             log.info("the page: %s (instance %s, robot %s; teleoperation as teacher %s%s)", where, instance, robot,
                      person, certificate)
-            if token:  # the one place the token is shown: whoever opens the page needs it
-                print(f"dogged ui: open {where}{certificate}", file=sys.stderr, flush=True)
+            if token:  # shown to this user only: the console of `dogged up` (logs are 0600) and their folder
+                kept = note_page(port_now, where)
+                print(f"dogged ui: open {where}{certificate}" + (f" (kept in {kept})" if kept else ""),
+                      file=sys.stderr, flush=True)
 
         async def serve():
             watcher = asyncio.create_task(_watch(stop, done))
@@ -80,6 +87,7 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
             done.set()
             bus.join(2.0)
             alive.undeclare()
+            forget_page(bridge.url)
     return 0
 
 
@@ -131,4 +139,6 @@ def cli(argv=None) -> int:
             tls, fingerprint = server_tls(host, a.tls_cert, a.tls_key)
         except TlsError as err:
             parser.error(str(err))
-    return main(config_from_args(a), a.instance, a.robot, a.person, host, int(port), a.name, tls, fingerprint)
+    secured = bool(os.environ.get("DOGGED_SECURITY")) or own_profile(a.connect) is not None
+    return main(config_from_args(a), a.instance, a.robot, a.person, host, int(port), a.name, tls, fingerprint,
+                secured)

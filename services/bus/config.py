@@ -68,6 +68,11 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
     identity = identity or os.environ.get("DOGGED_IDENTITY")
     mode = resolved_mode(mode, connect)
     conf = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
+    members = None
+    if not secured and mode != "router":  # this user's own profile, secured by default: its identities
+        found = own_profile(connect)
+        if found:
+            connect, secured, identity, members = found
     if secured:
         from services.refusals import log_refusals
         from services.security import roster, secure
@@ -75,7 +80,7 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
             raise ValueError("DOGGED_SECURITY is set but DOGGED_IDENTITY (this process's certificate) is not")
         # a peer links straight to other peers, so it enforces the access control itself, as the router does
         enforce = mode in ("router", "peer")
-        secure(conf, Path(secured), identity, roster(Path(secured)) if enforce else None)
+        secure(conf, Path(secured), identity, (members or roster(Path(secured))) if enforce else None)
         if enforce:  # what it refuses, its supervisor counts from its log
             log_refusals()
         if mode == "peer":  # other peers link to it over TLS too
@@ -100,6 +105,18 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
             conf.insert_json5("connect/timeout_ms", str(int(give_up_after * 1000)))
             conf.insert_json5("connect/exit_on_failure", "true")
     return conf
+
+
+def own_profile(connect: list[str] | None) -> tuple[list[str], Path, str, list[str]] | None:
+    """(endpoints, identity folder, identity, roster) when the one router connected to is on loopback and
+    runs a profile of this user's, secured (services/own_identities.py); else None."""
+    from services.own_identities import identity_for_connecting
+    from services.security import is_loopback
+    endpoints = connect or [os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)]
+    if len(endpoints) != 1 or not is_loopback(endpoints[0]):
+        return None
+    found = identity_for_connecting(endpoints[0])
+    return None if found is None else ([found[0]], found[1], found[2], found[3])
 
 
 def config_from_args(args: argparse.Namespace) -> zenoh.Config:

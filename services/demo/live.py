@@ -17,6 +17,7 @@ from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, Robo
                         TeachSwitch, decode, encode)
 from services.bus.config import zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
+from services.own_identities import wait_announced
 from services.waiting import poll
 
 REPO = Path(__file__).resolve().parents[2]
@@ -129,7 +130,14 @@ class LiveRun(BusRecorder):
         self.supervisor = subprocess.Popen([sys.executable, "-m", "services.cli", "up", str(profile), "--router",
                                             endpoint, "--quiet"], cwd=REPO, stdout=self._log,
                                            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-        super().__init__(endpoint, instance, robot)
+        try:
+            wait_announced(profile, endpoint, self.supervisor)
+            super().__init__(endpoint, instance, robot)
+        except BaseException:  # a supervisor left running would load the machine under every test after
+            self.supervisor.terminate()
+            self.supervisor.wait(60)
+            self._log.close()
+            raise
 
     def ps(self) -> dict:
         out = subprocess.run([sys.executable, "-m", "services.cli", "--connect", self.endpoint, "ps", "--json"],

@@ -29,25 +29,29 @@ from services.waiting import poll
 
 RATE = 30.0
 GAP = 0.25  # seconds without a command that count as commands having stopped (7.5 periods)
-def profile_text(name: str, run_dir: Path, services: dict[str, tuple[str, list[str]]]) -> str:
-    """A profile whose every service (name: (box, args)) is restarted whenever it dies."""
+
+
+def profile_text(name: str, run_dir: Path, services: dict[str, tuple[str, list[str]]], security: str = "") -> str:
+    """A profile whose every service (name: (box, args)) is restarted whenever it dies; `security` its
+    zenoh.security (default: this user's own identities)."""
     tables = "".join(f'\n[services.{service}]\nbox = "{box}"\nargs = {json.dumps(args)}\nrestart = "always"\n'
                      for service, (box, args) in services.items())
-    return f'[profile]\nname = "{name}"\nlog_dir = "{run_dir}/logs"\n{tables}'
+    zenoh = f'\n[zenoh]\nsecurity = "{security}"\n' if security else ""
+    return f'[profile]\nname = "{name}"\nlog_dir = "{run_dir}/logs"\n{tables}{zenoh}'
 
 
 def learner_args(run_dir: Path, learner: str) -> list[str]:
     return ["--learner", learner, "--state-dir", f"{run_dir}/state"]
 
 
-def mirroring_profile(run_dir: Path, learner: str, rate: float = RATE) -> str:
+def mirroring_profile(run_dir: Path, learner: str, rate: float = RATE, security: str = "") -> str:
     return profile_text("faults", run_dir, {
         "aibo": ("aibo", ["--command", "joints", "--input", "joints", "--rate", str(rate), "--camera-hz", "0"]),
         "handler": ("handler", ["--distractors", "mirroring"]),
         "mirror": ("demonstrator", ["--teacher", "mirror"]),
         "learner": ("learner", learner_args(run_dir, learner)),
         "arbitrator": ("arbitrator", []),
-    })
+    }, security)
 
 
 KILLED = ("learner", "arbitrator", "aibo", "mirror", "handler", "router")

@@ -18,7 +18,7 @@ from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKe
 from services.bus.config import DEFAULT_ROUTER, zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
 from services.bus.queries import ask_owner
-from services.supervisor.profile import ProfileError, load_profile
+from services.supervisor.profile import ProfileError, ensure_security, load_profile
 from services.waiting import poll
 
 
@@ -28,6 +28,7 @@ def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False
     logging.basicConfig(level="INFO", format="%(asctime)s %(levelname)s supervisor: %(message)s")
     try:
         profile = load_profile(profile_file, router, join=join)
+        ensure_security(profile)
     except ProfileError as err:
         print(f"dogged up: {err}", file=sys.stderr)
         return 2
@@ -89,7 +90,8 @@ def _session(args):
         return zenoh.open(zenoh_config(connect=[endpoint], mode="client", give_up_after=ROUTER_WAIT_S))
     except zenoh.ZError as err:
         secured = "" if os.environ.get("DOGGED_SECURITY") else (
-            "; a secured profile's router (tls/...) needs DOGGED_SECURITY and DOGGED_IDENTITY")
+            "; a secured profile's router (tls/...) needs DOGGED_SECURITY and DOGGED_IDENTITY, and one another "
+            "user runs (secured by default) lets in that user's own identities only")
         reason = str(err).split(" at /")[0]  # (the rest names zenoh's source file)
         raise SystemExit(f"dogged: cannot reach the router at {endpoint} within {ROUTER_WAIT_S:.0f} s "
                          f"({reason}){secured}") from None
@@ -292,10 +294,12 @@ def parse_balls(items: list[str] | None) -> dict:
 
 def arena(args) -> int:
     """Rebuild the robot's arena from a seed and put balls down (or away); confirmed from the
-    robot's own state stream, so a request the robot rejected does not pass silently."""
+    robot's own state stream (its simulated time starts again, the balls are where asked), so a request
+    the robot rejected, or the bus refused, does not pass silently."""
     try:
         balls = parse_balls(args.ball)
-    except ValueError as err:
+        ArenaReset(args.seed, balls).check("--seed/--ball")
+    except (ValueError, SchemaError) as err:
         print(f"dogged arena: {err}", file=sys.stderr)
         return 2
     keys = RobotKeys(args.robot)
@@ -306,15 +310,39 @@ def arena(args) -> int:
             print(f"no robot listens on {keys.arena}", file=sys.stderr)
             return 1
         held = session.declare_subscriber(keys.state, lambda sample: states.append(sample.payload.to_bytes()))
+        if not poll(lambda: states, 5, 0.05):
+            print(f"the robot sends no state on {keys.state}: nothing to confirm a reset by", file=sys.stderr)
+            return 1
+        before = len(states)
         pub.put(encode(ArenaReset(args.seed, balls)))
-        if poll(lambda: states and _balls_are_where_asked(decode(RobotState, states[-1], keys.state).balls, balls),
-                10, 0.1):
+        if poll(lambda: reset_confirmed(decoded_states(states, keys.state), before, balls), 10, 0.1):
             said = ", ".join(f"{n} {'off' if xy is None else xy}" for n, xy in balls.items())
             print(f"arena {args.seed}: {said or 'balls as seeded'}")
             return 0
         del held
     print(f"the robot did not confirm the arena reset; see `dogged logs {args.robot}`", file=sys.stderr)
     return 1
+
+
+def decoded_states(raw: list[bytes], key: str) -> list[RobotState | None]:
+    """The robot's states as they came (None for one that does not decode: anyone may put on the key)."""
+    out = []
+    for payload in list(raw):
+        try:
+            out.append(decode(RobotState, payload, key))
+        except SchemaError:
+            out.append(None)
+    return out
+
+
+def reset_confirmed(states: list[RobotState | None], asked_at: int, balls: dict) -> bool:
+    """Whether the states from index `asked_at` on (those after the request) show the reset: the simulated
+    time went back (a reset starts it from 0 again), and then the balls where asked."""
+    times = [(i, s.sim_time) for i, s in enumerate(states) if s is not None]
+    for (_, earlier), (i, later) in zip(times, times[1:]):
+        if i >= asked_at and later < earlier:
+            return any(s is not None and _balls_are_where_asked(s.balls, balls) for s in states[i:])
+    return False
 
 
 def _balls_are_where_asked(now: dict, asked: dict) -> bool:

@@ -55,7 +55,8 @@ class ManagedProcess:
     def _line(self, text: str) -> None:
         with self._lock:
             self.tail.append(text)
-            with open(self.log_path, "a") as f:
+            # this user's alone (0600 from creation): a log can hold the page's token
+            with open(os.open(self.log_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o600), "a") as f:
                 f.write(text + "\n")
             if self.echo:
                 sys.stdout.write(f"[{self.spec.name}] {text}\n")

@@ -10,9 +10,11 @@ from pathlib import Path
 
 from bus_schema import check_name
 from services.boxes import BOX_ROLES, parse_box_args
+from services.own_identities import identities_dir, secured_endpoint
 
 BOXES = tuple(box for box in BOX_ROLES if box != "router")  # the supervisor starts the profile's router itself
 RESTART = ("never", "on-failure", "always")
+OWN = "own"  # zenoh.security's default: this user's own identities (services/own_identities.py)
 SECURE_SCHEMES = ("tls", "quic")  # Zenoh links with mutual TLS: over TCP, and over UDP
 
 
@@ -53,7 +55,8 @@ class Profile:
     log_dir: Path
     services: tuple[ServiceSpec, ...]
     low_latency: bool = False  # hold a PM QoS request so CPUs stay out of deep idle (services.realtime)
-    security: Path | None = None  # a `dogged certs` directory (a folder per identity): mutual TLS and access control
+    # a `dogged certs` directory (a folder per identity): mutual TLS and access control; None: "off"
+    security: Path | None = None
     # where learners keep every pair they learned (their --state-dir unless they name one), so a restarted
     # learner comes back knowing what it was taught; None: learners without a --state-dir forget
     state_dir: Path | None = None
@@ -61,6 +64,7 @@ class Profile:
     # services here talk among themselves on this machine and only what the other side needs crosses
     upstream: str | None = None
     also_listen: tuple[str, ...] = ()  # more endpoints the router listens on (a quic/ one for a radio link)
+    own_security: bool = False  # `security` is this user's own identities (the default), made at `up`
 
     def service_args(self, spec: ServiceSpec) -> tuple[str, ...]:
         """The service's arguments, with the profile's state directory for a learner that names none."""
@@ -73,7 +77,10 @@ class Profile:
         recorder = [s for s in self.services if s.box == "recorder"]
         recordings = (recorder[0].options.out or "(the recorder's own default)") if recorder else "not recorded"
         state = self.state_dir or "not kept (state_dir = \"\")"
-        return f"state: {state}\nlogs: {self.log_dir}\nrecordings: {recordings}"
+        security = ("off: anyone on this machine may drive the robot" if self.security is None else
+                    f"this user's own identities in {self.security} (the router at {self.router})"
+                    if self.own_security else f"{self.security} (the router at {self.router})")
+        return f"state: {state}\nlogs: {self.log_dir}\nrecordings: {recordings}\nsecurity: {security}"
 
     def state_dir_of(self, spec: ServiceSpec) -> Path | None:
         """Where a learner keeps its pairs: its own --state-dir, else the profile's (None: nowhere)."""
@@ -178,19 +185,44 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     for key in zenoh_table:
         if key not in ("router", "security", "also_listen"):
             raise ProfileError(f"zenoh.{key}: unknown field; known: router, security, also_listen")
-    security = _get(zenoh_table, "security", str, "zenoh", "") or None
+    security = _get(zenoh_table, "security", str, "zenoh", OWN)
+    if not security:
+        raise ProfileError(f'zenoh.security: expected "{OWN}" (the default), "off" or a `dogged certs` directory, '
+                           'got ""')
     also_listen = _get(zenoh_table, "also_listen", list, "zenoh", [])
     if not all(isinstance(e, str) and "/" in e for e in also_listen):
         raise ProfileError("zenoh.also_listen: expected a list of endpoints like quic/10.0.0.1:7447, "
                            f"got {also_listen!r}")
-    profile = Profile(name, path, router, log_dir, specs, low_latency, Path(security) if security else None,
-                      base / state_dir if state_dir else None, upstream=join, also_listen=tuple(also_listen))
-    if check_security:
-        _check_security(profile)
+    own = security == OWN
+    if own:  # this user's identities (services/own_identities.py): the same ports, over TLS
+        if join:
+            raise ProfileError("--join: another machine's router shares no CA with this user's own identities: set "
+                               "zenoh.security to a `dogged certs` directory both machines use")
+        router, also_listen = secured_endpoint(router), [secured_endpoint(e) for e in also_listen]
+    directory = identities_dir() if own else None if security == "off" else base / security
+    profile = Profile(name, path, router, log_dir, specs, low_latency, directory,
+                      base / state_dir if state_dir else None, upstream=join, also_listen=tuple(also_listen),
+                      own_security=own)
+    if check_security and not own:  # this user's own are made at `up` (ensure_security)
+        check_security_files(profile)
     return profile
 
 
-def _check_security(profile: Profile) -> None:
+def ensure_security(profile: Profile) -> None:
+    """At `dogged up`: a profile secured by this user's own identities gets those it lacks; then every
+    secured profile is checked (ProfileError saying what is missing or wrong)."""
+    if profile.own_security:
+        from services.certificates import CA_KEY
+        from services.own_identities import NotPrivate, ensure_identities
+        try:
+            ensure_identities(profile.identities())
+        except (NotPrivate, ValueError, OSError) as err:
+            raise ProfileError(f"zenoh.security: this user's own identities: {err}") from None
+        assert not (profile.security / CA_KEY).exists()
+    check_security_files(profile)
+
+
+def check_security_files(profile: Profile) -> None:
     """A secured profile routes over tls/ and has every certificate it needs; tls/ needs security."""
     scheme = profile.router.split("/", 1)[0]
     if profile.security is None:

@@ -23,6 +23,7 @@ from services.bus.config import zenoh_config
 from services.bus.inbox import Inbox
 from services.bus.lifecycle import StopFlag
 from services.boxes.router import CANNOT_LISTEN, ROUTING
+from services.own_identities import NotPrivate, announce, withdraw
 from services.realtime import hold_low_latency
 from services.refusals import Refusals
 from services.security import ROSTER_ENV, identities_in
@@ -241,7 +242,7 @@ class Supervisor(Verbs):
         prof = self.profile
         if prof.low_latency and hold_low_latency(log):
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
-        router = self.secured(ServiceSpec("router", "router", "", restart="on-failure"), "router.router")
+        router_spec = self.secured(ServiceSpec("router", "router", "", restart="on-failure"), "router.router")
         if prof.security is not None:  # this process's own session, before it opens
             me = f"supervisor.{prof.name}"
             os.environ.update(DOGGED_SECURITY=str(prof.security / me), DOGGED_IDENTITY=me)
@@ -251,21 +252,42 @@ class Supervisor(Verbs):
         if prof.upstream:
             listen += ["--connect", prof.upstream]
             log.info("linking to the router at %s (another machine runs it)", prof.upstream)
-        self.procs["router"] = self.process(router, box_command("router", *listen))
-        self.procs["router"].start()
+        router = self.procs["router"] = self.process(router_spec, box_command("router", *listen))
+        router.start()
         problem = self.router_problem()
         if problem:  # its session would wait for ever, or join whichever router holds the port
             log.error("%s: nothing started", problem)
-            self.procs["router"].stop()
+            router.stop()
             return 1
+        announced = self.announce()
+        try:
+            return self.supervise(router)
+        finally:
+            if announced:
+                withdraw(prof.router)
+
+    def announce(self) -> bool:
+        """Tell this user's verbs where the router runs and as whom to speak to it (services/own_identities.py);
+        False when the per-user folder is not this user's alone (then the verbs need their flags)."""
+        try:
+            announce(self.profile.router, self.profile.security, self.roster, self.profile.name)
+            return True
+        except (NotPrivate, OSError) as err:
+            log.warning("this user's verbs will not find %s without --connect and --security: %s", self.profile.name,
+                        err)
+            return False
+
+    def supervise(self, router: ManagedProcess) -> int:
+        """Run the profile on the router started, until it is stopped; then stop every process."""
+        prof = self.profile
         conf = zenoh_config(connect=[prof.router], mode="client")
         with zenoh.open(conf) as session:
             held = []  # declarations live as long as these references (a dropped token is undeclared)
             held.append(session.liveliness().declare_subscriber(EVERY_ALIVE, self.inbox.callback("alive"),
                                                                 history=True))
             # the router's own token: a restarted router is ready again once it is back
-            self.procs["router"].state = "ready"
-            self.procs["router"].ready_key = router_token(prof.name)
+            router.state = "ready"
+            router.ready_key = router_token(prof.name)
             held.append(session.liveliness().declare_subscriber(router_token(prof.name), self.inbox.callback("alive"),
                                                                 history=True))
             held.append(session.declare_subscriber(EVERY_STATUS, self.inbox.callback("status")))
@@ -278,7 +300,7 @@ class Supervisor(Verbs):
             self.answer_deferred()
             for proc in reversed([p for p in self.procs.values() if p.spec.box != "router"]):
                 proc.stop()
-        self.procs["router"].stop()
+        router.stop()
         killed = [proc for proc in self.procs.values() if proc.killed]
         if killed:  # what they had not written (a recording's index, a summary) may be missing: say so
             log.warning("stopped; no process left, but %s did not stop on SIGTERM and %s killed: see %s",
