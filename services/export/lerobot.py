@@ -126,9 +126,9 @@ def _robot_type(table: TickTable) -> str | None:
 
 
 def _data_columns(pa, table: TickTable, episode: np.ndarray, frame_index: np.ndarray, fps: int) -> dict:
-    def vectors(values: np.ndarray):
+    def vectors(values: np.ndarray):  # a feature of shape (1,) is a plain column: LeRobot reads it so
         flat = pa.array(values.astype(np.float32).ravel())
-        return pa.FixedSizeListArray.from_arrays(flat, values.shape[1])
+        return flat if values.shape[1] == 1 else pa.FixedSizeListArray.from_arrays(flat, values.shape[1])
     columns = {"observation.state": vectors(table.x), "action": vectors(table.y),
                "confidence": pa.array(table.confidence.astype(np.float32)),
                "mode": pa.array(table.modes.tolist(), pa.string()),
