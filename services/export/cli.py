@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import time
 from pathlib import Path
@@ -76,6 +77,18 @@ def export_student_file(args) -> None:
     except (KeyError, ValueError) as err:  # an unknown learner or hyper-parameter in --learner
         raise ExportError(str(err).strip("'\"")) from None
     print(f"{args.student}: a {type(model).__name__} student, {model.n_learned} pairs learned")
+    if fits_on_their_own_thread(model):
+        print(f"note: live, a {type(model).__name__} fits on its own thread, so what it answered also depended on "
+              "when each fit landed: this is the same learner taught the same pairs offline, not the live one's "
+              "state; `dogged snapshot learner FILE` takes that from a running learner", file=sys.stderr)
+
+
+def fits_on_their_own_thread(model) -> bool:
+    """Whether a learner served live moves its upkeep (the GP's fits) off the loop's thread."""
+    from services.learners import Learner, PerOutput
+    if isinstance(model, PerOutput):
+        return any(fits_on_their_own_thread(part) for part in model._parts)
+    return type(model).serve_live is not Learner.serve_live
 
 
 def snapshot_main(argv: list[str]) -> int:
@@ -110,7 +123,8 @@ def snapshot_learner(args) -> str:
     with _session(args) as session:
         payload, problem = ask_owner(session, keys.snapshot(args.name), 30.0)
         if payload is None:
-            raise ExportError(f"learner {args.name} of dl/{args.instance} gave no snapshot: {problem}")
+            secured = "; a secured profile lets only learners ask for one" if os.environ.get("DOGGED_SECURITY") else ""
+            raise ExportError(f"learner {args.name} of dl/{args.instance} gave no snapshot: {problem}{secured}")
         spaces = fetch_spaces(session, keys, False, logging.getLogger("dogged snapshot"), timeout=10.0)
     if spaces is None:
         raise ExportError(f"the platform of dl/{args.instance} did not say its spaces within 10 s")
