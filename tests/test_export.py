@@ -117,6 +117,11 @@ def test_the_dataset_holds_every_tick_as_recorded_and_the_camera_as_video(record
     assert np.allclose(data["timestamp"], np.array(data["frame_index"]) / 30, atol=1e-6)
     assert data["frame_index"][199] == 0 and data["episode_index"][199] == 1
     assert info["features"]["observation.images.nose"]["shape"] == [SIZE[1], SIZE[0], 3]
+    stats = json.loads((tmp_path / "ds/meta/stats.json").read_text())
+    assert np.allclose(stats["action"]["mean"], written["y"].astype(np.float32).mean(0), atol=1e-6)
+    camera = np.array(stats["observation.images.nose"]["mean"])  # LeRobot's: per channel, in [0, 1]
+    recorded = np.mean([camera_image(i).reshape(-1, 3).mean(0) for i in written["frame"]], 0) / 255
+    assert camera.shape == (3, 1, 1) and np.allclose(camera.ravel(), recorded, atol=0.01)
     import av
     with av.open(str(tmp_path / "ds/videos/observation.images.nose/chunk-000/file-000.mp4")) as video:
         images = [f.to_ndarray(format="rgb24") for f in video.decode(video=0)]

@@ -16,6 +16,7 @@ import pytest
 from bus_schema import ArenaReset, Command, Input, Reward, decode
 from services.cli import main
 from services.demo.ballseek import start_ballseek
+from services.experiments.ballseek import BALLSEEK_RATE_HZ
 from services.experiments.wiring import wired_learner
 from services.learners import load_student
 from services.recording.reader import iter_samples
@@ -66,7 +67,7 @@ def demo(tmp_path_factory):
         run.teach(False)
         run.run_ticks(30, timeout=60)
         snapshot(endpoint, run_dir / "live.student")
-        run.run_ticks(30, timeout=60)
+        run.run_ticks(60, timeout=60)
         run.reset_arena(4, {"pink": [0.8, -0.2]})
         run.run_ticks(60, timeout=60)
     finally:
@@ -199,6 +200,8 @@ def test_the_demos_recording_as_a_lerobot_dataset(demo, tmp_path):
     rows = recorded_rows(recording)
     assert rows["arena_episodes"] == 3  # (the demo resets the arena before teaching, then once more)
     check_dataset(tmp_path / "ds", rows, rows["arena_episodes"], camera=(208, 160))
+    # the simulation's rate, in its own time (the demo runs in lockstep, faster)
+    assert json.loads((tmp_path / "ds/meta/info.json").read_text())["fps"] == BALLSEEK_RATE_HZ
     check_loaded(loaded_by_lerobot(tmp_path / "ds"), rows, rows["arena_episodes"], camera=(208, 160))
 
 
@@ -234,10 +237,11 @@ def test_lwpr_students_answer_as_the_live_learner_did(demo, tmp_path):
     export(recording, "--student", tmp_path / "exported.student")
     for path in (tmp_path / "exported.student", snapped):
         student = load_student(path)
-        assert student.learner == "LWPR" and student.model.n_learned >= 150
+        assert student.learner == "LWPR" and student.model.n_learned >= 100  # (150 ticks taught, loaded: fewer)
         x, y, confidence = answered_with(recording, student.model.n_learned)
-        assert len(x) >= 50, f"{path.name}: {len(x)} answers compared"
-        assert differences(student, x, y, confidence) <= (1e-9, 1e-9), path.name
+        assert len(x) >= 30, f"{path.name}: {len(x)} answers having learned {student.model.n_learned} pairs"
+        found = differences(student, x, y, confidence)
+        assert found <= (1e-9, 1e-9), f"{path.name}: {found} on {len(x)} answers"
 
 
 def test_a_gp_student_snapshotted_once_its_fits_caught_up_answers_as_the_live_one_after(gym):
@@ -245,8 +249,9 @@ def test_a_gp_student_snapshotted_once_its_fits_caught_up_answers_as_the_live_on
     student = load_student(snapped)
     assert student.learner == "GP" and student.model.n_learned >= 500
     x, y, confidence = answered_with(recording, student.model.n_learned, from_tick=after)
-    assert len(x) >= 300
-    assert differences(student, x, y, confidence) <= (1e-9, 1e-9)
+    assert len(x) >= 200, f"{len(x)} answers having learned {student.model.n_learned} pairs"
+    found = differences(student, x, y, confidence)
+    assert found <= (1e-9, 1e-9), f"{found} on {len(x)} answers"
     import gymnasium
     env = gymnasium.make("Pendulum-v1")
     observation, _ = env.reset(seed=0)

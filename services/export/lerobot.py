@@ -3,7 +3,7 @@
     meta/info.json                      fps, features (names from the spaces), totals, paths
     meta/tasks.parquet                  the task (one: what the teacher taught)
     meta/episodes/chunk-000/file-000.parquet   per episode: its frames' and video's place
-    meta/stats.json                     min, max, mean, std, count of each numeric feature
+    meta/stats.json                     min, max, mean, std, count, quantiles of each feature but strings
     data/chunk-000/file-000.parquet     one row per tick
     videos/observation.images.nose/chunk-000/file-000.mp4   the camera, where one was recorded
 
@@ -21,7 +21,7 @@ import numpy as np
 
 from services.export.episodes import chosen, episode_index, episode_starts
 from services.export.ticks import ExportError, TickTable
-from services.export.video import encode_video, even_size
+from services.export.video import encode_video, even_size, image_stats
 
 CODEBASE_VERSION = "v3.0"
 CHUNK_FILE = "chunk-{chunk_index:03d}/file-{file_index:03d}"
@@ -30,7 +30,7 @@ VIDEO_PATH = "videos/{video_key}/" + CHUNK_FILE + ".mp4"
 EPISODES_PATH = "meta/episodes/" + CHUNK_FILE + ".parquet"
 CAMERA_KEY = "observation.images.nose"  # the Aibo's camera is in its nose
 MODES = ("teacher", "student", "unsure")
-SCALAR = (1,)
+QUANTILES = {"q01": 0.01, "q10": 0.10, "q50": 0.50, "q90": 0.90, "q99": 0.99}  # LeRobot's, by its names
 
 
 def needs_pyarrow():
@@ -43,9 +43,12 @@ def needs_pyarrow():
 
 
 def fps_of(table: TickTable) -> int:
-    """The platform's rate as recorded: the median interval between its stamps within each run."""
-    steps = np.diff(table.stamps)[table.runs[1:] == table.runs[:-1]]
-    steps = steps[steps > 0]
+    """The platform's rate as recorded: the median interval between ticks within each run, in the robot's
+    simulated time where its clock was recorded (a simulation in lockstep runs faster than its own time),
+    else by the platform's stamps."""
+    times = table.stamps if table.sim_times is None else table.sim_times
+    steps = np.diff(times)[table.runs[1:] == table.runs[:-1]]
+    steps = steps[steps > 0]  # (an arena reset may start the simulated time again)
     return max(1, round(1.0 / float(np.median(steps)))) if len(steps) else 1
 
 
@@ -103,9 +106,11 @@ def export_lerobot(run: str | Path, table: TickTable, out: Path, episode_by: str
     path = out / DATA_PATH.format(chunk_index=0, file_index=0)
     path.parent.mkdir(parents=True)
     _write(pa, pa.table(columns), path)
+    stats = _stats(columns, found)
     if with_video:
-        encode_video(run, table.camera, table.frames, fps, out / VIDEO_PATH.format(video_key=CAMERA_KEY,
-                                                                                   chunk_index=0, file_index=0))
+        histogram = encode_video(run, table.camera, table.frames, fps,
+                                 out / VIDEO_PATH.format(video_key=CAMERA_KEY, chunk_index=0, file_index=0))
+        stats[CAMERA_KEY] = {**image_stats(histogram, QUANTILES), "count": [len(table)]}
     _write(pa, _episodes(pa, bounds, task, fps, with_video), out / EPISODES_PATH.format(chunk_index=0, file_index=0))
     _write(pa, _tasks(pa, [task]), out / "meta/tasks.parquet")
     info = {"codebase_version": CODEBASE_VERSION, "robot_type": _robot_type(table), "total_episodes": len(bounds) - 1,
@@ -113,7 +118,7 @@ def export_lerobot(run: str | Path, table: TickTable, out: Path, episode_by: str
             "video_files_size_in_mb": 200, "fps": fps, "splits": {"train": f"0:{len(bounds) - 1}"},
             "data_path": DATA_PATH, "video_path": VIDEO_PATH if with_video else None, "features": found}
     (out / "meta/info.json").write_text(json.dumps(info, indent=2))
-    (out / "meta/stats.json").write_text(json.dumps(_stats(columns, found), indent=2))
+    (out / "meta/stats.json").write_text(json.dumps(stats, indent=2))
     return {"episodes": len(bounds) - 1, "frames": len(table), "fps": fps, "episode_by": by, "video": with_video,
             "left_out": table.left_out}
 
@@ -181,7 +186,8 @@ def _stats(columns: dict, found: dict) -> dict:
         values = np.asarray(column.flatten() if hasattr(column, "flatten") else column, dtype=np.float64)
         values = values.reshape(len(column), -1)
         stats[name] = {"min": values.min(0).tolist(), "max": values.max(0).tolist(), "mean": values.mean(0).tolist(),
-                       "std": values.std(0).tolist(), "count": [len(values)]}
+                       "std": values.std(0).tolist(), "count": [len(values)],
+                       **{key: np.quantile(values, q, axis=0).tolist() for key, q in QUANTILES.items()}}
     return stats
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bus_schema import ArenaReset, Command, Frame, Input, InstanceKeys, Reward, RobotKeys, SchemaError, Spaces
+from bus_schema import ArenaReset, Clock, Command, Frame, Input, InstanceKeys, Reward, RobotKeys, SchemaError, Spaces
 from bus_schema.codec import decode
 from services.recording.reader import iter_samples, read_metadata, spaces_in
 from services.recording.restarts import MATCH_S, PlatformRuns
@@ -73,6 +73,7 @@ class TickTable:
     arena_resets: list = field(default_factory=list)  # log_ns of each arena reset
     camera: Camera | None = None
     frames: np.ndarray | None = None    # (n,) the camera frame each row shows (index into camera), -1 none
+    sim_times: np.ndarray | None = None  # (n,) the robot's simulated time at each row (its clock), if recorded
     left_out: int = 0                   # inputs with no command recorded (not rows)
 
     def __len__(self) -> int:
@@ -123,10 +124,11 @@ class _Reader:
         self.commands: dict = {}  # (run, tick) -> Command
         self.rewards: dict = {}   # (run, tick) -> Reward
         self.resets: list = []
+        self.clock: list = []     # (log_ns, sim_time) of the robot's clock
         self.camera = Camera(robot_keys.camera) if robot_keys and camera else None
         self.wanted = {keys.input: Input, keys.command: Command, keys.reward: Reward}
         if robot_keys:
-            self.wanted[robot_keys.arena] = ArenaReset
+            self.wanted.update({robot_keys.arena: ArenaReset, robot_keys.clock: Clock})
 
     def read(self, run: Path) -> None:
         camera_key = self.camera.key if self.camera else None
@@ -145,6 +147,8 @@ class _Reader:
                 self.inputs.append((self.runs.add_input(msg.tick, sample.log_ns), sample.log_ns, msg))
             elif cls is ArenaReset:
                 self.resets.append(sample.log_ns)
+            elif cls is Clock:
+                self.clock.append((sample.log_ns, msg.sim_time))
             else:
                 table = self.commands if cls is Command else self.rewards
                 table[(self.runs.run_of(msg.tick, sample.log_ns, self.runs.current), msg.tick)] = msg
@@ -168,6 +172,11 @@ class _Reader:
             table.reward = np.array([np.nan if r is None else r.reward for r in found])
             table.done = np.array([r is not None and r.done for r in found])
             table.gym_episode = np.array([-1 if r is None else r.episode for r in found], dtype=np.int64)
+        if self.clock:  # the clock received nearest each input
+            clock_ns, sim = np.array(self.clock).T
+            after = np.searchsorted(clock_ns, table.log_ns).clip(1, len(clock_ns) - 1)
+            nearer = np.abs(clock_ns[after - 1] - table.log_ns) <= np.abs(clock_ns[after] - table.log_ns)
+            table.sim_times = sim[np.where(nearer | (len(clock_ns) == 1), after - 1, after)]
         if self.camera and self.camera.log_ns:
             by_tick: dict = {}
             for i, tick in enumerate(self.camera.ticks):

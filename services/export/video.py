@@ -21,9 +21,9 @@ def even_size(width: int, height: int) -> tuple[int, int]:
     return width - width % 2, height - height % 2
 
 
-def encode_video(run: str | Path, camera: Camera, frames: np.ndarray, fps: int, out: Path) -> int:
+def encode_video(run: str | Path, camera: Camera, frames: np.ndarray, fps: int, out: Path) -> np.ndarray:
     """Writes the camera frame `frames[i]` (an index into `camera`'s frames, non-decreasing; -1 shows the
-    first) as the video's frame i; returns the frames written."""
+    first) as the video's frame i; returns the video's histogram per RGB channel (3, 256) over every pixel."""
     import av
     width, height = even_size(*camera.size)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -33,17 +33,34 @@ def encode_video(run: str | Path, camera: Camera, frames: np.ndarray, fps: int, 
         stream.width, stream.height, stream.pix_fmt = width, height, PIX_FMT
         stream.codec_context.time_base = Fraction(1, fps)
         shown = _shown(run, Camera(camera.key))
-        ordinal, image = -1, None
+        ordinal, image, counts = -1, None, None
+        histogram = np.zeros((3, 256), np.int64)
         for i, want in enumerate(wanted):
             while ordinal < want:
                 ordinal, jpeg = next(shown)
                 if ordinal == want:
                     image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)[:height, :width]
+                    counts = np.stack([np.bincount(image[..., c].ravel(), minlength=256) for c in (2, 1, 0)])
             frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
             frame.pts = i
             container.mux(stream.encode(frame))
+            histogram += counts
         container.mux(stream.encode())
-    return len(wanted)
+    return histogram
+
+
+def image_stats(histogram: np.ndarray, quantiles: dict) -> dict:
+    """LeRobot's statistics of a camera from its per-channel histograms: values in [0, 1], each of shape
+    (3, 1, 1) as LeRobot keeps them; count is the frames'."""
+    levels = np.arange(256) / 255.0
+    total = histogram.sum(1)
+    mean = histogram @ levels / total
+    std = np.sqrt(np.maximum(histogram @ levels**2 / total - mean**2, 0.0))
+    cumulative = np.cumsum(histogram, 1) / total[:, None]
+    found = {"min": [levels[np.flatnonzero(h)[0]] for h in histogram],
+             "max": [levels[np.flatnonzero(h)[-1]] for h in histogram], "mean": mean, "std": std}
+    found.update({name: [levels[np.searchsorted(c, q)] for c in cumulative] for name, q in quantiles.items()})
+    return {name: np.asarray(values, dtype=np.float64).reshape(3, 1, 1).tolist() for name, values in found.items()}
 
 
 def _shown(run, camera: Camera):
