@@ -131,14 +131,15 @@ def recorded_rows(recording) -> dict:
         elif isinstance(msg, ArenaReset):
             resets.append(sample.log_ns)
         elif isinstance(msg, Reward):
-            rewards[msg.tick] = msg.episode
+            rewards[msg.tick] = msg
     rows = [(ns, i, commands[i.tick]) for ns, i in inputs if i.tick in commands]
     first, last = rows[0][0], rows[-1][0]
     return {"x": np.array([i.x for _, i, _ in rows]), "y": np.array([c.y for _, _, c in rows]),
             "tick": [i.tick for _, i, _ in rows], "mode": [c.mode for _, _, c in rows],
             "source": [c.source for _, _, c in rows],
             "arena_episodes": 1 + sum(first < ns <= last for ns in resets),
-            "gym_episodes": len({rewards[i.tick] for _, i, _ in rows if i.tick in rewards})}
+            "gym_episodes": len({rewards[i.tick].episode for _, i, _ in rows if i.tick in rewards}),
+            "reward": [rewards[i.tick].reward if i.tick in rewards else None for _, i, _ in rows]}
 
 
 def same_floats(column: list, recorded: np.ndarray) -> bool:
@@ -154,6 +155,11 @@ def check_dataset(root: Path, rows: dict, episodes: int, camera: tuple[int, int]
     assert same_floats(data["observation.state"], rows["x"]) and same_floats(data["action"], rows["y"])
     assert data["tick"] == rows["tick"] and data["mode"] == rows["mode"] and data["source"] == rows["source"]
     assert {"teacher", "student"} <= set(data["mode"])
+    if "next.reward" in data:  # each step's reward, at the tick whose command earned it
+        stepped = [i for i, r in enumerate(rows["reward"]) if r is not None]
+        assert len(stepped) >= len(rows["tick"]) - 2
+        assert np.array_equal(np.array(data["next.reward"], np.float32)[stepped],
+                              np.array([rows["reward"][i] for i in stepped], np.float32))
     if camera:
         import av
         with av.open(str(root / "videos/observation.images.nose/chunk-000/file-000.mp4")) as video:
@@ -211,6 +217,7 @@ def test_the_gym_runs_recording_as_a_lerobot_dataset(gym, tmp_path):
     rows = recorded_rows(recording)
     assert rows["gym_episodes"] >= 4  # Pendulum's episodes are 200 steps
     check_dataset(tmp_path / "ds", rows, rows["gym_episodes"], camera=None)
+    assert "next.reward" in pq.read_schema(tmp_path / "ds/data/chunk-000/file-000.parquet").names
     check_loaded(loaded_by_lerobot(tmp_path / "ds"), rows, rows["gym_episodes"], camera=None)
 
 
