@@ -41,7 +41,7 @@ lerobot-check: $(STAMP)
 		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null)
 	test -x $(LEROBOT_VENV)/bin/python || $(PYTHON) -m venv $(LEROBOT_VENV)
 	$(LEROBOT_VENV)/bin/pip install --quiet lerobot-dataset==0.4.4 torch==2.14.1 torchvision==0.29.1 torchcodec==0.17.0
-	DOGGED_LEROBOT_PYTHON=$(CURDIR)/$(LEROBOT_VENV)/bin/python $(VENV)/bin/pytest -q -rs tests/test_export_live.py
+	DOGGED_LEROBOT_PYTHON=$(abspath $(LEROBOT_VENV))/bin/python $(VENV)/bin/pytest -q -rs tests/test_export_live.py
 
 bench: $(STAMP)
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b --quick || exit 1; done

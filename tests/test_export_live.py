@@ -13,13 +13,13 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from bus_schema import ArenaReset, Command, Input, Reward, decode
+from bus_schema import ArenaReset, Command, Input, Reward, Spaces, decode
 from services.cli import main
 from services.demo.ballseek import start_ballseek
 from services.experiments.ballseek import BALLSEEK_RATE_HZ
 from services.experiments.wiring import wired_learner
 from services.learners import load_student
-from services.recording.reader import iter_samples
+from services.recording.reader import iter_samples, read_metadata, spaces_in
 from services.recording.runs import load_run
 from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, stop
 
@@ -133,13 +133,15 @@ def recorded_rows(recording) -> dict:
         elif isinstance(msg, Reward):
             rewards[msg.tick] = msg
     rows = [(ns, i, commands[i.tick]) for ns, i in inputs if i.tick in commands]
+    spaces = Spaces.from_dict(spaces_in(read_metadata(recording), "main"))
     first, last = rows[0][0], rows[-1][0]
     return {"x": np.array([i.x for _, i, _ in rows]), "y": np.array([c.y for _, _, c in rows]),
             "tick": [i.tick for _, i, _ in rows], "mode": [c.mode for _, _, c in rows],
             "source": [c.source for _, _, c in rows],
             "arena_episodes": 1 + sum(first < ns <= last for ns in resets),
             "gym_episodes": len({rewards[i.tick].episode for _, i, _ in rows if i.tick in rewards}),
-            "reward": [rewards[i.tick].reward if i.tick in rewards else None for _, i, _ in rows]}
+            "reward": [rewards[i.tick].reward if i.tick in rewards else None for _, i, _ in rows],
+            "names": {"observation.state": list(spaces.input.names), "action": list(spaces.output.names)}}
 
 
 def same_floats(column: list, recorded: np.ndarray) -> bool:
@@ -195,30 +197,45 @@ def check_loaded(found: dict, rows: dict, episodes: int, camera: tuple[int, int]
     assert columns["source"] == rows["source"]
     features = found["features"]
     assert {"observation.state", "action", "mode", "source", "confidence", "tick"} <= set(features)
+    assert all(features[name]["names"] == names for name, names in rows["names"].items()), rows["names"]
     if camera:
         shown = found["video"]["shown"]
         assert len(shown) == 2 * episodes and all(shape == [3, camera[1], camera[0]] for shape, _ in shown.values())
 
 
-def test_the_demos_recording_as_a_lerobot_dataset(demo, tmp_path):
-    recording, _ = demo
-    export(recording, "--lerobot", tmp_path / "ds")
-    rows = recorded_rows(recording)
-    assert rows["arena_episodes"] == 3  # (the demo resets the arena before teaching, then once more)
-    check_dataset(tmp_path / "ds", rows, rows["arena_episodes"], camera=(208, 160))
+@pytest.fixture(scope="module")
+def exported(demo, gym, tmp_path_factory) -> dict:
+    """Each run's recording exported as a LeRobot dataset: its folder, the recording's rows, its episodes and
+    camera size."""
+    found = {}
+    for name, recording in (("demo", demo[0]), ("gym", gym[0])):
+        root = tmp_path_factory.mktemp(f"{name}-dataset") / "ds"
+        export(recording, "--lerobot", root)
+        rows = recorded_rows(recording)
+        episodes = rows["arena_episodes"] if name == "demo" else rows["gym_episodes"]
+        found[name] = (root, rows, episodes, (208, 160) if name == "demo" else None)
+    return found
+
+
+def test_the_demos_dataset_is_its_recording(exported):
+    root, rows, episodes, camera = exported["demo"]
+    assert episodes == 3  # (the demo resets the arena before teaching, then once more)
+    check_dataset(root, rows, episodes, camera)
     # the simulation's rate, in its own time (the demo runs in lockstep, faster)
-    assert json.loads((tmp_path / "ds/meta/info.json").read_text())["fps"] == BALLSEEK_RATE_HZ
-    check_loaded(loaded_by_lerobot(tmp_path / "ds"), rows, rows["arena_episodes"], camera=(208, 160))
+    assert json.loads((root / "meta/info.json").read_text())["fps"] == BALLSEEK_RATE_HZ
 
 
-def test_the_gym_runs_recording_as_a_lerobot_dataset(gym, tmp_path):
-    recording, _, _ = gym
-    export(recording, "--lerobot", tmp_path / "ds")
-    rows = recorded_rows(recording)
-    assert rows["gym_episodes"] >= 4  # Pendulum's episodes are 200 steps
-    check_dataset(tmp_path / "ds", rows, rows["gym_episodes"], camera=None)
-    assert "next.reward" in pq.read_schema(tmp_path / "ds/data/chunk-000/file-000.parquet").names
-    check_loaded(loaded_by_lerobot(tmp_path / "ds"), rows, rows["gym_episodes"], camera=None)
+def test_the_gym_runs_dataset_is_its_recording(exported):
+    root, rows, episodes, camera = exported["gym"]
+    assert episodes >= 4  # Pendulum's episodes are 200 steps
+    check_dataset(root, rows, episodes, camera)
+    assert "next.reward" in pq.read_schema(root / "data/chunk-000/file-000.parquet").names
+
+
+@pytest.mark.parametrize("run", ["demo", "gym"])
+def test_lerobots_own_reader_reads_the_recording_back(exported, run):
+    root, rows, episodes, camera = exported[run]
+    check_loaded(loaded_by_lerobot(root), rows, episodes, camera)
 
 
 def answered_with(recording, learned: int, from_tick: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
