@@ -163,6 +163,33 @@ def test_the_student_file_is_the_learner_taught_every_recorded_pair(recorded, tm
         assert np.array_equal(y, np.clip(p.y, -1, 1)) and confidence == p.confidence
 
 
+def test_an_export_cut_short_leaves_no_dataset(recorded, tmp_path, monkeypatch):
+    import services.export.lerobot as lerobot
+
+    def failing(*args):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(lerobot, "encode_video", failing)
+    out = export(recorded[0], "--lerobot", tmp_path / "ds")
+    assert out.returncode == 2 and "No space left on device" in out.stderr, out.stderr
+    assert list(tmp_path.iterdir()) == []  # neither the dataset nor its partial folder
+
+
+def test_a_frame_that_does_not_decode_shows_the_last_one_again(tmp_path):
+    point = PointPlatform(dims=2)
+    writer = RunWriter(tmp_path / "run", "recorder", 10**9, 3600.0)
+    writer.add_metadata("spaces dl/main", {"spaces": json.dumps(point.spaces.to_dict())})
+    writer.add_metadata("run", {"instances": "main", "robots": "sim"})
+    for tick in range(1, 11):
+        jpeg = cv2.imencode(".jpg", camera_image(tick))[1].tobytes() if tick != 5 else b"\xff\xd8 not a JPEG"
+        writer.write("robot/sim/camera", Frame, encode(Frame(tick, 1000.0 + tick, 0.0, *SIZE, jpeg)), tick, tick)
+        writer.write("dl/main/input", Input, encode(Input(tick, 1000.0 + tick, point.observe())), tick + 1, tick + 1)
+        writer.write("dl/main/command", Command, encode(Command(tick, 1000.0 + tick, np.zeros(2), "student", "l", 0.5)),
+                     tick + 2, tick + 2)
+    writer.close()
+    out = export(tmp_path / "run", "--lerobot", tmp_path / "ds")
+    assert out.returncode == 0 and "10 frames in 1 episode (by run) at 1 fps, with the camera" in out.stdout, out
+
+
 def test_a_student_file_is_data_and_says_what_is_wrong_with_one_that_is_not(tmp_path):
     point = PointPlatform(dims=2)
     model = make_learner("knn", 4, 2)

@@ -58,7 +58,8 @@ def export_dataset(args) -> None:
     done = export_lerobot(args.run, table, out, args.episode_by, not args.no_video, args.fps)
     took = time.perf_counter() - start
     camera = "with the camera" if done["video"] else "no camera" + (" recorded" if not args.no_video else "")
-    print(f"{out}: {done['frames']} frames in {done['episodes']} episodes (by {done['episode_by']}) at "
+    episodes = f"{done['episodes']} episode" + ("s" if done["episodes"] != 1 else "")
+    print(f"{out}: {done['frames']} frames in {episodes} (by {done['episode_by']}) at "
           f"{done['fps']} fps, {camera}; {table.duration_s:.0f} s recorded, exported in {took:.1f} s"
           + (f"; {done['left_out']} inputs had no command recorded and were left out" if done["left_out"] else ""))
 
@@ -105,7 +106,7 @@ def snapshot_main(argv: list[str]) -> int:
     use_certificate(args)
     try:
         said = snapshot_learner(args)
-    except ExportError as err:
+    except (ExportError, OSError) as err:
         print(f"dogged snapshot: {err}", file=sys.stderr)
         return 1
     print(said)

@@ -15,6 +15,7 @@ are float32, LeRobot's; `timestamp` is frame_index / fps, as LeRobot writes it.
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -85,27 +86,38 @@ def features(table: TickTable, video_size: tuple[int, int] | None) -> dict:
 
 def export_lerobot(run: str | Path, table: TickTable, out: Path, episode_by: str = "auto", video: bool = True,
                    fps: int | None = None) -> dict:
-    """Writes the dataset into `out` (which must not exist); returns what was written."""
+    """Writes the dataset into `out` (which must not exist), whole or not at all: into a hidden folder beside
+    it, renamed when every file is written (an export cut short leaves no half dataset); returns what was
+    written."""
     pa = needs_pyarrow()
     if out.exists():
         raise ExportError(f"{out}: already exists; give a new folder (nothing is overwritten)")
     by = chosen(table, episode_by)
     starts = episode_starts(table, by)
+    fps = fps or fps_of(table)
+    partial = out.parent / f".{out.name}.writing"
+    shutil.rmtree(partial, ignore_errors=True)  # what an export cut short left
+    partial.mkdir(parents=True)
+    try:
+        episodes = _write_dataset(pa, run, table, starts, fps, video and table.camera is not None, partial)
+        partial.rename(out)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+    return {"episodes": episodes, "frames": len(table), "fps": fps, "episode_by": by,
+            "video": video and table.camera is not None, "left_out": table.left_out}
+
+
+def _write_dataset(pa, run, table: TickTable, starts: np.ndarray, fps: int, with_video: bool, out: Path) -> int:
+    """Every file of the dataset into `out`; returns its episodes."""
     episode = episode_index(starts)
     bounds = np.append(np.flatnonzero(starts), len(table))
-    frame_index = np.arange(len(table)) - bounds[episode]
-    fps = fps or fps_of(table)
-    with_video = video and table.camera is not None
-    video_size = even_size(*table.camera.size) if with_video else None
-    found = features(table, video_size)
+    found = features(table, even_size(*table.camera.size) if with_video else None)
     if with_video:
         found[CAMERA_KEY]["info"]["video.fps"] = fps
-    out.mkdir(parents=True)
     task = task_of(table)
-    columns = _data_columns(pa, table, episode, frame_index, fps)
-    path = out / DATA_PATH.format(chunk_index=0, file_index=0)
-    path.parent.mkdir(parents=True)
-    _write(pa, pa.table(columns), path)
+    columns = _data_columns(pa, table, episode, np.arange(len(table)) - bounds[episode], fps)
+    _write(pa, pa.table(columns), out / DATA_PATH.format(chunk_index=0, file_index=0))
     stats = _stats(columns, found)
     if with_video:
         histogram = encode_video(run, table.camera, table.frames, fps,
@@ -119,8 +131,7 @@ def export_lerobot(run: str | Path, table: TickTable, out: Path, episode_by: str
             "data_path": DATA_PATH, "video_path": VIDEO_PATH if with_video else None, "features": found}
     (out / "meta/info.json").write_text(json.dumps(info, indent=2))
     (out / "meta/stats.json").write_text(json.dumps(stats, indent=2))
-    return {"episodes": len(bounds) - 1, "frames": len(table), "fps": fps, "episode_by": by, "video": with_video,
-            "left_out": table.left_out}
+    return len(bounds) - 1
 
 
 def _robot_type(table: TickTable) -> str | None:

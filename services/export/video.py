@@ -39,8 +39,11 @@ def encode_video(run: str | Path, camera: Camera, frames: np.ndarray, fps: int, 
             while ordinal < want:
                 ordinal, jpeg = next(shown)
                 if ordinal == want:
-                    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)[:height, :width]
-                    counts = np.stack([np.bincount(image[..., c].ravel(), minlength=256) for c in (2, 1, 0)])
+                    decoded = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+                    if decoded is not None or image is None:  # a JPEG that does not decode: the last one again
+                        image = np.zeros((height, width, 3), np.uint8) if decoded is None else \
+                            decoded[:height, :width]
+                        counts = np.stack([np.bincount(image[..., c].ravel(), minlength=256) for c in (2, 1, 0)])
             frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
             frame.pts = i
             container.mux(stream.encode(frame))
