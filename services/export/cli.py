@@ -17,7 +17,7 @@ def export_main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="dogged export", description=__doc__.splitlines()[0])
     parser.add_argument("run", help="a recorder's folder (runs/<profile>/recordings/<when>) or one .mcap file")
     parser.add_argument("--lerobot", metavar="DIR", help="write a LeRobot dataset (v3.0) into this new folder")
-    parser.add_argument("--student", metavar="FILE", help="write the taught student into this file "
+    parser.add_argument("--student", metavar="FILE", help="write the taught student into this file, replacing it "
                                                           "(load it with services.learners.load_student)")
     parser.add_argument("--instance", default="main")
     parser.add_argument("--episode-by", default="auto", choices=EPISODE_BY,
