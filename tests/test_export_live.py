@@ -22,6 +22,7 @@ from services.learners import load_student
 from services.recording.reader import iter_samples, read_metadata, spaces_in
 from services.recording.runs import load_run
 from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, stop
+from tests.test_supervisor import ps
 
 GYM_PROFILE = """
 [profile]
@@ -91,7 +92,7 @@ def gym(tmp_path_factory):
     probe = Probe(endpoint)
     inputs = probe.record("dl/main/input")
     try:
-        probe.wait_for(lambda: probe.counter("platform/platform", "tick") > 0, 90, "the loop running")
+        probe.wait_for(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()), 90, "all ready")
         assert dogged_ok("teach", "on", endpoint=endpoint).returncode == 0
         probe.wait_for(lambda: probe.counter("arbitrator/arbitrator", "train_pairs") >= 500, 60, "500 pairs taught")
         assert dogged_ok("teach", "off", endpoint=endpoint).returncode == 0
