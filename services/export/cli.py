@@ -47,9 +47,9 @@ def export_main(argv: list[str]) -> int:
 
 
 def export_dataset(args) -> None:
-    from services.export.lerobot import export_lerobot, needs_pyarrow
+    from services.export.lerobot import export_lerobot, needs_export_extra
     from services.export.ticks import read_ticks
-    needs_pyarrow()
+    needs_export_extra()
     out = Path(args.lerobot)
     if out.exists():  # before the run is read
         raise ExportError(f"{out}: already exists; give a new folder (nothing is overwritten)")

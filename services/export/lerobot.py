@@ -30,16 +30,19 @@ DATA_PATH = "data/" + CHUNK_FILE + ".parquet"
 VIDEO_PATH = "videos/{video_key}/" + CHUNK_FILE + ".mp4"
 EPISODES_PATH = "meta/episodes/" + CHUNK_FILE + ".parquet"
 CAMERA_KEY = "observation.images.nose"  # the Aibo's camera is in its nose
-MODES = ("teacher", "student", "unsure")
 QUANTILES = {"q01": 0.01, "q10": 0.10, "q50": 0.50, "q90": 0.90, "q99": 0.99}  # LeRobot's, by its names
 
 
-def needs_pyarrow():
+def needs_export_extra(video: bool = False):
+    """pyarrow (and av, for the camera), or an ExportError saying how to install them."""
     try:
         import pyarrow
         import pyarrow.parquet  # noqa: F401
-    except ImportError:
-        raise ExportError("exporting a LeRobot dataset needs pyarrow and av: pip install 'dogged[export]'") from None
+        if video:
+            import av  # noqa: F401
+    except ImportError as err:
+        raise ExportError(f"exporting a LeRobot dataset needs pyarrow and av ({err}): pip install "
+                          "'dogged[export]'") from None
     return pyarrow
 
 
@@ -59,7 +62,7 @@ def task_of(table: TickTable) -> str:
     return f"what the teacher taught on {what} (dogged instance {table.instance})"
 
 
-def features(table: TickTable, video_size: tuple[int, int] | None) -> dict:
+def features(table: TickTable, video_size: tuple[int, int] | None, fps: int) -> dict:
     spaces = table.spaces
     found = {
         "observation.state": {"dtype": "float32", "shape": [spaces.input.dims],
@@ -77,7 +80,7 @@ def features(table: TickTable, video_size: tuple[int, int] | None) -> dict:
         width, height = video_size
         found[CAMERA_KEY] = {"dtype": "video", "shape": [height, width, 3], "names": ["height", "width", "channels"],
                              "info": {"video.height": height, "video.width": width, "video.codec": "h264",
-                                      "video.pix_fmt": "yuv420p", "video.is_depth_map": False, "video.fps": None,
+                                      "video.pix_fmt": "yuv420p", "video.is_depth_map": False, "video.fps": fps,
                                       "video.channels": 3, "has_audio": False}}
     for name in ("timestamp", "frame_index", "episode_index", "index", "task_index"):
         found[name] = {"dtype": "float32" if name == "timestamp" else "int64", "shape": [1], "names": None}
@@ -89,7 +92,7 @@ def export_lerobot(run: str | Path, table: TickTable, out: Path, episode_by: str
     """Writes the dataset into `out` (which must not exist), whole or not at all: into a hidden folder beside
     it, renamed when every file is written (an export cut short leaves no half dataset); returns what was
     written."""
-    pa = needs_pyarrow()
+    pa = needs_export_extra(video and table.camera is not None)
     if out.exists():
         raise ExportError(f"{out}: already exists; give a new folder (nothing is overwritten)")
     by = chosen(table, episode_by)
@@ -112,9 +115,7 @@ def _write_dataset(pa, run, table: TickTable, starts: np.ndarray, fps: int, with
     """Every file of the dataset into `out`; returns its episodes."""
     episode = episode_index(starts)
     bounds = np.append(np.flatnonzero(starts), len(table))
-    found = features(table, even_size(*table.camera.size) if with_video else None)
-    if with_video:
-        found[CAMERA_KEY]["info"]["video.fps"] = fps
+    found = features(table, even_size(*table.camera.size) if with_video else None, fps)
     task = task_of(table)
     columns = _data_columns(pa, table, episode, np.arange(len(table)) - bounds[episode], fps)
     _write(pa, pa.table(columns), out / DATA_PATH.format(chunk_index=0, file_index=0))

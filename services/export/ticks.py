@@ -132,7 +132,7 @@ class _Reader:
 
     def read(self, run: Path) -> None:
         camera_key = self.camera.key if self.camera else None
-        for sample in iter_samples(run):
+        for sample in iter_samples(run, {*self.wanted, camera_key}):
             if sample.key == camera_key:
                 self.camera.take(sample)
                 continue
