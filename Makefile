@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 export DOGGED_CHROMIUM ?= /usr/bin/chromium
 USER_ID ?= $(shell id -u)
 
-.PHONY: demo test chromium bench clean
+.PHONY: demo test chromium bench clean lerobot-check
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "dogged needs Python 3.11 (pybullet 3.2.7 ships wheels for 3.11 only); set PYTHON=/path/to/python3.11")'
@@ -32,8 +32,19 @@ test: $(STAMP) chromium
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest -q -rs
 
+# The exported datasets read by LeRobot's own reader (tests/test_export_live.py; make test skips that part):
+# lerobot-dataset imports torch and torchvision (about 6 GB here) and decodes video with torchcodec, which
+# needs FFmpeg's libraries (Debian's ffmpeg, installed as root); so they get a venv of their own
+LEROBOT_VENV := .venv-lerobot
+lerobot-check: $(STAMP)
+	@command -v ffmpeg >/dev/null || [ "$(USER_ID)" != 0 ] || (apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null)
+	test -x $(LEROBOT_VENV)/bin/python || $(PYTHON) -m venv $(LEROBOT_VENV)
+	$(LEROBOT_VENV)/bin/pip install --quiet lerobot-dataset==0.4.4 torch==2.14.1 torchvision==0.29.1 torchcodec==0.17.0
+	DOGGED_LEROBOT_PYTHON=$(abspath $(LEROBOT_VENV))/bin/python $(VENV)/bin/pytest -q -rs tests/test_export_live.py
+
 bench: $(STAMP)
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b --quick || exit 1; done
 
 clean:
-	rm -rf $(VENV) runs deploy/runs .pytest_cache
+	rm -rf $(VENV) $(LEROBOT_VENV) runs deploy/runs .pytest_cache

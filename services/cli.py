@@ -1,5 +1,6 @@
 """`dogged`: run a box, bring a profile up or down, list, read logs, swap a learner, switch teachers,
-watch the robot's mode, reset the robot's arena, replay a recorded run or play it into a live bus."""
+watch the robot's mode, reset the robot's arena, replay a recorded run or play it into a live bus, export a
+recorded run (a LeRobot dataset, its student as a file) or a running learner's student."""
 from __future__ import annotations
 
 import argparse
@@ -15,7 +16,8 @@ BOXES = {name: f"services.boxes.{name}" for name in BOX_ROLES}
 
 # verbs that parse their own arguments (`run` too): the module and function that do
 OWN_PARSERS = {"ui": ("services.boxes.ui", "cli"), "demo": ("services.demo", "cli"),
-               "replay": ("services.recording.cli", "replay_main"), "play": ("services.recording.cli", "play_main")}
+               "replay": ("services.recording.cli", "replay_main"), "play": ("services.recording.cli", "play_main"),
+               "export": ("services.export.cli", "export_main"), "snapshot": ("services.export.cli", "snapshot_main")}
 
 
 def run_box(argv: list[str]) -> int:
@@ -76,8 +78,8 @@ def global_flags(after_verb: bool = False) -> argparse.ArgumentParser:
 
 
 def verbs_parser() -> argparse.ArgumentParser:
-    """`dogged <verb>`: the supervisor's verbs (`run`, `ui`, `demo`, `replay` and `play` parse their own
-    arguments)."""
+    """`dogged <verb>`: the supervisor's verbs (`run`, `ui`, `demo`, `replay`, `play`, `export` and `snapshot`
+    parse their own arguments)."""
     parser = argparse.ArgumentParser(prog="dogged", description=__doc__, parents=[global_flags()],
                                      epilog="--connect, --profile, --security and --identity go before the verb "
                                             "or after it (up and certs do not use them).")
@@ -92,6 +94,8 @@ def verbs_parser() -> argparse.ArgumentParser:
     sub.add_parser("demo", help="the headline demo: ball seeking end to end (dogged demo --help)")
     sub.add_parser("replay", help="retrain learners on a recorded run and compare them (dogged replay --help)")
     sub.add_parser("play", help="publish a recorded run's inputs in place of the platform (dogged play --help)")
+    sub.add_parser("export", help="a recorded run as a LeRobot dataset, its student as a file (dogged export --help)")
+    sub.add_parser("snapshot", help="a running learner's student as a file: dogged snapshot learner FILE")
     up = sub.add_parser("up", help="start a router and every service of a profile; Ctrl-C stops all")
     up.add_argument("profile_file")
     up.add_argument("--router", default=None, help="override the profile's router endpoint")

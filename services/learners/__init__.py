@@ -17,6 +17,7 @@ from .lwpr import LWPR
 from .per_output import PerOutput
 from .registry import LEARNERS, compile_kernels, make_learner
 from .sogp import SOGP
+from .student import Student, StudentFileError, load_student, save_student
 
 # the learner the system is wired with (deploy profiles, experiments, demo, the learner box)
 DEFAULT_LEARNER = "gp"
@@ -24,5 +25,6 @@ DEFAULT_LEARNER = "gp"
 __all__ = [
     "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction",
            "Predictions",
-    "SOGP", "UnknownLearnerError", "compile_kernels", "make_learner",
+    "SOGP", "Student", "StudentFileError", "UnknownLearnerError", "compile_kernels", "load_student", "make_learner",
+    "save_student",
 ]
