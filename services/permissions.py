@@ -61,11 +61,12 @@ PARTS = {
     "arbitrator": _with(_member("arbitrator"), Part(
         put=(_I.command, _I.train), token=(_I.commanding(ANY),), answer=(_I.train_recent,), ask=(_I.spaces,))),
     "recorder": _with(_member("recorder"), Part(ask=(_I.spaces, _R.spaces))),
-    # a person: `dogged teach`, `dogged arena`, `dogged ps|logs|swap|down` (services/supervisor/commands.py)
-    # and `dogged ui` (services/ui), whose token and status say "ui" and which teleoperates as a teacher
+    # a person: `dogged teach`, `dogged arena`, `dogged ps|logs|swap|down` (services/supervisor/commands.py),
+    # `dogged snapshot learner FILE` (services/export: the student's state, read) and `dogged ui` (services/ui),
+    # whose token and status say "ui" and which teleoperates as a teacher
     "operator": _with(_member("ui"), Part(
         put=(_I.teach, _I.record, _R.arena, _I.proposal("teacher", ANY)), token=(_I.teaching(ANY),),
-        ask=(_I.spaces, EVERY_VERB))),
+        ask=(_I.spaces, EVERY_VERB, _I.snapshot(ANY)))),
     # services/supervisor: its verbs, its token, the learner a hot-swap selects (services/supervisor/swap.py)
     "supervisor": Part(put=(_I.select_learner,), token=(supervisor_token(ANY),),
                        answer=(EVERY_VERB,)),

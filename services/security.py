@@ -40,7 +40,7 @@ name or profile, and `{a,b}` either):
 | recorder | ask | `dl/i/spaces`, `robot/r/spaces` |
 | operator | put | `dl/i/{teach,record}`, `robot/r/arena`, `dl/i/proposal/teacher/*`, `dl/i/status/ui/*` |
 | operator | token | `dl/i/alive/{ui,teaching}/*` |
-| operator | ask | `dl/i/spaces`, `dogged/supervisor/*/*` |
+| operator | ask | `dl/i/spaces`, `dogged/supervisor/*/*`, `dl/i/learner/*/snapshot` |
 | supervisor | put | `dl/i/arbitrator/select` |
 | supervisor | token | `dogged/supervisor/*` |
 | supervisor | answer | `dogged/supervisor/*/*` |

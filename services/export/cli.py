@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import sys
 import time
 from pathlib import Path
@@ -124,8 +123,7 @@ def snapshot_learner(args) -> str:
     with _session(args) as session:
         payload, problem = ask_owner(session, keys.snapshot(args.name), 30.0)
         if payload is None:
-            secured = "; a secured profile lets only learners ask for one" if os.environ.get("DOGGED_SECURITY") else ""
-            raise ExportError(f"learner {args.name} of dl/{args.instance} gave no snapshot: {problem}{secured}")
+            raise ExportError(f"learner {args.name} of dl/{args.instance} gave no snapshot: {problem}")
         spaces = fetch_spaces(session, keys, False, logging.getLogger("dogged snapshot"), timeout=10.0)
     if spaces is None:
         raise ExportError(f"the platform of dl/{args.instance} did not say its spaces within 10 s")
