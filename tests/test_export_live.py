@@ -220,7 +220,9 @@ def exported(demo, gym, tmp_path_factory) -> dict:
 
 def test_the_demos_dataset_is_its_recording(exported):
     root, rows, episodes, camera = exported["demo"]
-    assert episodes == 3  # (the demo resets the arena before teaching, then once more)
+    # the demo resets the arena before teaching (before or after the loop's first command, as it happens:
+    # an episode then, or none) and once more mid-run: an episode more
+    assert episodes in (2, 3)
     check_dataset(root, rows, episodes, camera)
     # the simulation's rate, in its own time (the demo runs in lockstep, faster)
     assert json.loads((root / "meta/info.json").read_text())["fps"] == BALLSEEK_RATE_HZ

@@ -43,7 +43,9 @@ args = ["--http", "127.0.0.1:{port}", "--robot", "none"]
 """
 
 
-def write_profile(tmp_path, router, certs=None, page_port=None):
+def write_profile(tmp_path, router, certs="off", page_port=None):
+    """certs: a `dogged certs` directory, "off" (no security: what these tests compare against), or None
+    (no zenoh.security: this user's own identities, tests/test_security_default.py)."""
     path = tmp_path / "suptest.toml"
     security = f'security = "{certs}"' if certs else ""
     page = PAGE.format(port=page_port) if page_port else ""
@@ -229,7 +231,7 @@ def test_up_refuses_to_join_another_machine_in_the_clear(tmp_path):
 
 
 def test_a_joining_profile_runs_its_own_router_and_links_it_securely(tmp_path):
-    joined = load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447"), join="quic/192.0.2.7:7447",
+    joined = load_profile(write_profile(tmp_path, "tls/127.0.0.1:7447", tmp_path / "certs"), join="quic/192.0.2.7:7447",
                           check_security=False)
     assert joined.upstream == "quic/192.0.2.7:7447" and joined.router == "tls/127.0.0.1:7447"
     assert "router.router" in joined.identities()
