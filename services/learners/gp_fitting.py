@@ -152,5 +152,6 @@ class Refitting:
         self._ratio = max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), self.noise_floor)
         self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
         self._surprise = 0.0
+        self._answer_cache = None
         if rebuild:
             self._rebuild()
