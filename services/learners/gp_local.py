@@ -91,6 +91,7 @@ class LocalGP(Refitting, Learner):
         self._background, self._pending = False, None  # serve_live: fits on another thread
         self._searching = None  # serve_live: a search for a split under way on the splitter's thread
         self._answer_cache = None  # predict_one's constants (_constants)
+        self._sd_cache = None  # (envelope count, _input_sd)
         self._use(first_hyper(n_in, n_out), rebuild=False)  # also sets the surprise and spread baselines
 
     @classmethod
@@ -149,9 +150,15 @@ class LocalGP(Refitting, Learner):
         self._weigh_surprise(y - self._hyper.mu - before, unit_var)
 
     def _input_sd(self) -> np.ndarray:
-        """Each input's spread over everything learned (0 for an input that never varied)."""
-        sd = np.sqrt(self._envelope.sum_sq / max(self._envelope.count, 1))
-        return np.where(sd > 1e-12 * (1.0 + np.abs(self._envelope.mean)), sd, 0.0)
+        """Each input's spread over everything learned (0 for an input that never varied); read-only, kept
+        until the envelope learns again (learning asks twice a sample)."""
+        count = self._envelope.count
+        if self._sd_cache is None or self._sd_cache[0] != count:
+            sd = np.sqrt(self._envelope.sum_sq / max(count, 1))
+            sd = np.where(sd > 1e-12 * (1.0 + np.abs(self._envelope.mean)), sd, 0.0)
+            sd.flags.writeable = False
+            self._sd_cache = (count, sd)
+        return self._sd_cache[1]
 
     def _count_target(self, y: np.ndarray) -> None:
         """Welford's running mean and variance of the taught outputs, and their range (learned here
@@ -218,15 +225,18 @@ class LocalGP(Refitting, Learner):
     def _rebuild(self) -> None:
         """The Cholesky factor and beta over the memory, from scratch."""
         m = self._m
-        gram = np.empty((m, m))  # its lower triangle, compiled (numpy's took 10-18 ms of a 20 ms rebuild at 800)
-        gp_kernels.gram(self._xs, m, self._inv_ell, self._hyper.centre, self._smooth, self._linear, gram)
-        diagonal = gram.diagonal().copy()
+        # the kernel matrix's lower triangle, compiled (numpy's whole matrix took 10-18 ms of a 20 ms rebuild at
+        # 800), factored in place: C order's lower triangle is Fortran order's upper one
+        unit = np.empty((m, m))
+        gp_kernels.gram(self._xs, m, self._inv_ell, self._hyper.centre, self._smooth, self._linear, unit)
         while True:
-            np.fill_diagonal(gram, diagonal + self._ratio)
-            chol, failed = potrf(gram, lower=1, clean=1, overwrite_a=0)
+            gram = unit.copy()
+            gram.flat[::m + 1] += self._ratio
+            upper, failed = potrf(gram.T, lower=0, clean=1, overwrite_a=1)
             if failed == 0:
                 break
             self._ratio *= 10.0  # rounding on near-duplicates: more noise, never a crash
+        chol = upper.T
         self._chol[:m, :m] = chol
         self._beta[:m] = solve_triangular(chol, self._ys[:m] - self._hyper.mu, lower=True, check_finite=False)
         self._factored = True
@@ -265,13 +275,13 @@ class LocalGP(Refitting, Learner):
         """What every answer shares until the next sample learned or fit adopted (predict_one's fast path):
         the prior variance per output, near of the span over sqrt 2, whether answers are held and to what,
         the envelope's mean and sd, the inputs its novelty counts along and its scale (0: no envelope)."""
-        if self._answer_cache is None:
+        if self._answer_cache is None:  # (dropped by whatever changes these: no copies needed)
             envelope, varied = self._envelope, self._hyper.varied
-            sd = np.sqrt(np.maximum(np.diag(envelope.scatter), 0.0) / max(envelope.count, 1))
+            sd = np.sqrt(np.maximum(envelope.scatter.diagonal(), 0.0) / max(envelope.count, 1))
             counted = ~varied if varied.any() else np.ones(self.n_in, dtype=bool)
             self._answer_cache = (self._amplitude2(), self.near * self._taught.span / math.sqrt(2.0),
-                                  self._smooth > LINEAR_ENOUGH, self._taught.floor.copy(), self._taught.ceiling.copy(),
-                                  envelope.mean.copy(), sd, counted, self.novelty_scale if envelope.count else 0.0)
+                                  self._smooth > LINEAR_ENOUGH, self._taught.floor, self._taught.ceiling,
+                                  envelope.mean, sd, counted, self.novelty_scale if envelope.count else 0.0)
         return self._answer_cache
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
@@ -333,7 +343,7 @@ class LocalGP(Refitting, Learner):
     def __getstate__(self) -> dict:
         # unused rows stay out of snapshots, and so does a fit under way on the fitter's thread
         state = dict(self.__dict__, _pending=None, _searching=None, _background=False, proposed_split=None,
-                     _answer_cache=None)
+                     _answer_cache=None, _sd_cache=None)
         m = self._m
         for name in ("_xs", "_ys", "_born", "_beta"):
             state[name] = getattr(self, name)[:m].copy()
