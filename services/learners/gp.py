@@ -112,7 +112,7 @@ class GP(Learner):
 
     def _take_split(self, k: int) -> None:
         """Apply a split leaf k's last fit proposed (gp_split), if there is room: served live, the fit that
-        proposes it ends on the fitter's thread, to be collected by the leaf's next call, learning or not."""
+        proposes it ends in the fitter's process, to be collected by the leaf's next call, learning or not."""
         part = self._parts[k]
         split, part.proposed_split = part.proposed_split, None
         if split is not None and len(self._parts) < self.leaves:
@@ -174,7 +174,7 @@ class GP(Learner):
         return twin
 
     def serve_live(self) -> None:
-        """Every leaf fits on the fitter's thread (gp_local.LocalGP.serve_live), and so do the halves of a split."""
+        """Every leaf fits in the fitter's process (gp_local.LocalGP.serve_live), and so do the halves of a split."""
         for part in self._parts:
             part.serve_live()
 

@@ -14,7 +14,7 @@ an input further than the fit saw: inputs that do not explain the teaching (dist
 dragged along) grow long length scales and stop mattering. The teacher is assumed right (the paper's
 premise): the noise a fit may call the teaching's is at most `noise_ceiling` of the taught span
 (default: half of `near`), so inconsistency beyond that is structure to be learned, not averaged away.
-Serving live (`serve_live`, the learner service) a fit runs on a thread of its own and is applied when
+Serving live (`serve_live`, the learner service) a fit runs in a process of its own and is applied when
 done; teaching that went on meanwhile is fitted next, so when teaching stops the last fit has seen it
 all. Far from what it was taught the posterior reverts to the taught mean, and an answer is held to the
 taught range plus 10 % of its span, unless the evidence says the map is linear: a linear map extends
@@ -88,8 +88,8 @@ class LocalGP(Refitting, Learner):
         self.may_split, self.proposed_split, self._split_check = False, None, 0
         self._factored = False  # chol and beta hold the memory's posterior
         self._surprise_gap = SURPRISE_REFIT_GAP  # samples a surprise must wait since the last fit
-        self._background, self._pending = False, None  # serve_live: fits on another thread
-        self._searching = None  # serve_live: a search for a split under way on the splitter's thread
+        self._background, self._pending = False, None  # serve_live: fits in another process
+        self._searching = None  # serve_live: a search for a split under way in the splitter's process
         self._answer_cache = None  # predict_one's constants (_constants)
         self._sd_cache = None  # (envelope count, _input_sd)
         self._use(first_hyper(n_in, n_out), rebuild=False)  # also sets the surprise and spread baselines
@@ -341,7 +341,7 @@ class LocalGP(Refitting, Learner):
 
     # --- snapshots --------------------------------------------------------------------------
     def __getstate__(self) -> dict:
-        # unused rows stay out of snapshots, and so does a fit under way on the fitter's thread
+        # unused rows stay out of snapshots, and so does a fit under way in the fitter's process
         state = dict(self.__dict__, _pending=None, _searching=None, _background=False, proposed_split=None,
                      _answer_cache=None, _sd_cache=None)
         m = self._m
