@@ -93,3 +93,16 @@ CHECKS = [c for c in ALL_CHECKS if c.__name__ != "check_confidence_doubts_a_quer
 @pytest.mark.parametrize("check", CHECKS, ids=[c.__name__ for c in CHECKS])
 def test_per_output_over_the_gp_passes_the_conformance_checks(check):
     check(lambda seed=0: PerOutput(3, 2, seed=seed, base="gp", params={"memory": 100, "fit_points": 64}))
+
+
+def test_an_output_released_while_served_live_fits_aside_too():
+    """A copy of a GP (holding) keeps fitting where the GP did: a released output served live must not fit in
+    the answer path (its snapshot-like copy would, by default)."""
+    model = PerOutput(3, 3, seed=0, base="gp", params=PARAMS)
+    model.serve_live()
+    rng = np.random.default_rng(0)
+    for x in rng.uniform(-1, 1, (40, 3)):
+        model.learn_one(x, [np.sin(3 * x[0]), 0.0, 0.0], [1, 1, 0])  # output 0 moves, 1 is held, 2 left out
+    assert model._parts[0] is not None and [g["outputs"] for g in model._held] == [[1], [2]]
+    learners = [model._parts[0]] + [g["model"] for g in model._held]
+    assert all(leaf._background for each in learners for leaf in each.parts)

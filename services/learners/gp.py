@@ -157,8 +157,7 @@ class GP(Learner):
         if self.n_out != 1 or len(self._parts) != 1 or leaf._factored:
             raise ValueError("only a one-output GP taught a single value can be held at another")
         twin = copy.deepcopy(self)  # as a snapshot is taken: fitting in the caller's thread
-        if leaf._background:
-            twin.serve_live()
+        twin._parts[0]._background = leaf._background  # served live, as this one (its fitting processes are up)
         target = np.array([float(value)])
         for each in (twin, twin._parts[0]):
             each.seed = int(seed)
