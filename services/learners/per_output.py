@@ -111,6 +111,8 @@ class PerOutput(Learner):
     def predict_one(self, x) -> Prediction:
         x = as_vector(x, self.n_in, "inputs")
         y, taught = np.zeros(self.n_out), []  # an output never taught answers 0 (the contract), unasked
+        if self._n_learned == 0:
+            return Prediction(y, 0.0)
         for i, part in enumerate(self._parts):
             if part is not None and part.n_learned > 0:
                 a = part.predict_one(x)  # each part's own fast path
