@@ -43,9 +43,10 @@ def _pool(name: str) -> Executor:
     """A process of its own (spawned: nothing forks after a Zenoh session is open) for every GP of the process
     that serves live: fits queue rather than crowd the cores. On a thread of the learner's process (until issue
     34), a fit's Python held the GIL the answer path waited for: the mirroring student, taught live, spent
-    0.83 ms a tick answering and 1.34 ms learning where a fit in a process of its own left 0.22 and 1.02 (the
-    answer path's own CPU 0.8 and 0.74 ms). A pool whose process died is started again; where no process can
-    start (a script without a `__main__` guard, which spawn imports again), a thread does the work as before."""
+    0.83 ms a tick answering and 1.34 ms learning where a fit in a process of its own left 0.22 and 1.02 (its
+    own CPU a tick 0.80 and 0.74 ms; benchmarks/lib/learner_costs.py, one session). A pool whose process died
+    is started again; where no process can start (a script without a `__main__` guard, which spawn imports
+    again), a thread does the work as before."""
     pool = _POOLS.get(name)
     if pool is None or getattr(pool, "_broken", False):
         pool = _POOLS[name] = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
