@@ -9,8 +9,9 @@ Each recording is replayed with three learners, answering each input on the live
 and measured against the teacher program run on every input (the paper's Figure 5 measure). The
 replay speed-up is the recorded duration over the time a replay with LWPR takes (relearning every
 pair, answering every input; its kernels compiled before the clock starts, as the live learner's
-are). Last line: one JSON object (replay_speedup, recorder_mb_per_min, lost_after_sigkill_s,
-final_error_<run>_<learner>, ...).
+are), and the same with the learner the profile wires (replay_speedup_wired: issue 34 asks 50x).
+Last line: one JSON object (replay_speedup, replay_speedup_wired, recorder_mb_per_min,
+lost_after_sigkill_s, final_error_<run>_<learner>, ...).
 """
 from __future__ import annotations
 
@@ -31,11 +32,12 @@ import numpy as np  # noqa: E402
 
 from services.demo.ballseek import run_ballseek_live  # noqa: E402
 from services.demo.mirroring import start_mirroring  # noqa: E402
+from services.experiments.wiring import wired_learner  # noqa: E402
 from services.learners import compile_kernels, make_learner  # noqa: E402
 from services.recording.cli import compare  # noqa: E402
 from services.recording.compare import table  # noqa: E402
 from services.recording.reader import iter_samples, run_files  # noqa: E402
-from services.recording.replay import replay, schedule  # noqa: E402
+from services.recording.replay import learner_from_spec, replay, schedule  # noqa: E402
 from services.recording.runs import load_run  # noqa: E402
 from services.teachers import make_teacher  # noqa: E402
 from services.waiting import poll  # noqa: E402
@@ -82,6 +84,12 @@ def size_figures(folder: Path) -> dict:
     return {"files": len(files), "messages": len(times), "mb": mb, "minutes": minutes, "mb_per_min": mb / minutes}
 
 
+def wired_spec(name: str) -> str:
+    """The learner deploy/<name>.toml wires, as a replay spec ('per-output:base=gp')."""
+    learner, params = wired_learner(name)
+    return learner + (":" + ",".join(f"{k}={v}" for k, v in params.items()) if params else "")
+
+
 def replay_figures(name: str, folder: Path) -> dict:
     run = load_run(folder)
     live = next(iter(run.live))
@@ -90,6 +98,11 @@ def replay_figures(name: str, folder: Path) -> dict:
     start = time.perf_counter()
     lwpr = replay(run, "lwpr", 0, plan)
     took = time.perf_counter() - start
+    wired = wired_spec(name)  # the learner the profile wires (issue 34: 50x the recorded time)
+    compile_kernels(learner_from_spec(wired, run.spaces.input.dims, run.spaces.output.dims, 0))
+    start = time.perf_counter()
+    replay(run, wired, 0, plan)
+    wired_took = time.perf_counter() - start
     inputs, answers = run.answered(live)
     reproduced = float(np.max(np.abs(lwpr.y[inputs] - run.live[live].y[answers]))) if name == "mirroring" else None
     teacher = make_teacher(TEACHERS[name], run.spaces)
@@ -97,7 +110,8 @@ def replay_figures(name: str, folder: Path) -> dict:
     print(f"\n{name}: {len(run.ticks)} inputs over {run.duration_s:.0f} s, {len(run.pair_ticks)} pairs; "
           f"reference: teacher {TEACHERS[name]} on every input")
     print(table(rows, 0.1))
-    out = {"speedup": run.duration_s / took, "duration_s": run.duration_s, "replay_s": took,
+    out = {"speedup": run.duration_s / took, "duration_s": run.duration_s, "replay_s": took, "wired": wired,
+           "wired_s": wired_took, "wired_speedup": run.duration_s / wired_took,
            "final": {r.spec: r.final_error for r in rows}, "student": {r.spec: r.student_error for r in rows}}
     if reproduced is not None:
         out["reproduced_max_abs"] = reproduced
@@ -115,16 +129,20 @@ def main(quick: bool, out: str | None = None) -> dict:
         replays = {name: replay_figures(name, folder) for name, folder in (("mirroring", mirroring),
                                                                             ("ballseek", ballseek))}
     print(f"\n{'recording':<12}{'minutes':>9}{'messages':>10}{'files':>7}{'MB':>8}{'MB/min':>8}"
-          f"{'replay s':>10}{'speed-up (LWPR)':>17}")
+          f"{'replay s':>10}{'speed-up (LWPR)':>17}{'wired learner':>24}{'replay s':>10}{'speed-up':>10}")
     for name, s in sizes.items():
         r = replays[name]
         print(f"{name:<12}{s['minutes']:>9.2f}{s['messages']:>10}{s['files']:>7}{s['mb']:>8.1f}{s['mb_per_min']:>8.2f}"
-              f"{r['replay_s']:>10.2f}{r['speedup']:>16.0f}x")
+              f"{r['replay_s']:>10.2f}{r['speedup']:>16.0f}x{r['wired']:>24}{r['wired_s']:>10.2f}"
+              f"{r['wired_speedup']:>9.0f}x")
     print(f"SIGKILL of the recorder: its file lost the last {lost_s:.2f} s before the kill; replayed LWPR "
           f"matches the live one to {replays['mirroring']['reproduced_max_abs']:.1e} on every answer")
     figures = {"replay_speedup": round(min(r["speedup"] for r in replays.values()), 1),
                "replay_speedup_mirroring": round(replays["mirroring"]["speedup"], 1),
                "replay_speedup_ballseek": round(replays["ballseek"]["speedup"], 1),
+               "replay_speedup_wired": round(min(r["wired_speedup"] for r in replays.values()), 1),
+               "replay_speedup_wired_mirroring": round(replays["mirroring"]["wired_speedup"], 1),
+               "replay_speedup_wired_ballseek": round(replays["ballseek"]["wired_speedup"], 1),
                "recorder_mb_per_min": round(sizes["ballseek"]["mb_per_min"], 2),
                "recorder_mb_per_min_mirroring": round(sizes["mirroring"]["mb_per_min"], 2),
                "lost_after_sigkill_s": round(lost_s, 3),

@@ -1,6 +1,12 @@
 """The GP learner's promises: it finds the inputs that matter, holds what it does not trust to the
 taught range, extends a map the evidence says is linear, stays finite on degenerate streams."""
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from services.learners import make_learner
 from services.waiting import poll
@@ -105,7 +111,7 @@ def test_an_input_that_only_jittered_while_taught_does_not_throw_the_answer_off_
 
 
 def test_served_live_a_fit_runs_aside_and_the_last_one_sees_all_the_teaching():
-    """serve_live: fits on the fitter's thread; teaching during a fit is fitted next, so once the
+    """serve_live: fits in the fitter's process; teaching during a fit is fitted next, so once the
     teaching stops and the fits land, the model is the one a synchronous learner would have."""
     task = draw_task(5, *UNIT, relevant=(2, 2), taught=(1, 1))
     xs = task.stream(20.0, 30.0, "trajectory")
@@ -124,3 +130,55 @@ def test_served_live_a_fit_runs_aside_and_the_last_one_sees_all_the_teaching():
     probe = task.stream(10.0, 30.0, "trajectory")[::7]
     gap = np.abs(live.predict_many(probe).y - still.predict_many(probe).y).max()
     assert gap < 0.05, gap
+
+
+FITS_LIVE = """
+import os, sys
+import numpy as np
+from services.learners import make_learner
+if __name__ == "__main__":
+    model = make_learner("gp", 3, 1)
+    model.serve_live()
+    print(os.getpid(), flush=True)
+    rng = np.random.default_rng(0)
+    while True:
+        x = rng.uniform(-1, 1, 3)
+        model.learn_one(x, [np.sin(3 * x[0])])
+"""
+
+
+def children_of(pid: int) -> list[int]:
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
+def test_the_fitting_processes_go_when_their_learner_is_killed():
+    """Served live, fits run in processes of their own (issue 34); killed, the learner's process must not leave
+    them behind (their queue's pipe stays open in them, so they watch their parent)."""
+    learner = subprocess.Popen([sys.executable, "-c", FITS_LIVE], stdout=subprocess.PIPE, text=True,
+                               cwd=Path(__file__).resolve().parents[1])  # this checkout's services
+    try:
+        pid = int(learner.stdout.readline())
+        assert poll(lambda: len(children_of(pid)) >= 2, 30.0), children_of(pid)  # the fitter and the splitter
+        left = children_of(pid)
+        time.sleep(1.0)  # fits under way
+    finally:
+        learner.kill()
+        learner.wait()
+    assert poll(lambda: not any(alive(child) for child in left), 10.0), left
+
+
+def alive(pid: int) -> bool:
+    """Running (not gone, not a zombie nobody reaped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False

@@ -33,14 +33,22 @@ def smooth_map(n_in: int, n_out: int, taught: int, samples: int, seed: int = 0) 
 
 def timed_calls(model, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Milliseconds of each predict_one and each learn_one, answering then learning each sample in turn."""
-    predict, learn = np.empty(len(xs)), np.empty(len(xs))
+    return timed_calls_cpu(model, xs, ys)[:2]
+
+
+def timed_calls_cpu(model, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """timed_calls, and the mean milliseconds of the caller's thread's own CPU time in learn_one: what the
+    answer path spends, apart from waiting for the cores and the GIL (a shared 2-core machine at load 6-8
+    made the wall time of the same calls 3-4x their CPU time)."""
+    predict, learn, cpu = np.empty(len(xs)), np.empty(len(xs)), 0.0
     for i, (x, y) in enumerate(zip(xs, ys)):
         started = time.perf_counter()
         model.predict_one(x)
-        between = time.perf_counter()
+        between, cpu_before = time.perf_counter(), time.thread_time()
         model.learn_one(x, y)
         predict[i], learn[i] = between - started, time.perf_counter() - between
-    return predict * 1e3, learn * 1e3
+        cpu += time.thread_time() - cpu_before
+    return predict * 1e3, learn * 1e3, cpu * 1e3 / max(len(xs), 1)
 
 
 def settle(model, timeout: float = 120.0) -> None:
@@ -59,12 +67,12 @@ def cost(name: str, params: dict, n_in: int, n_out: int, taught: int, calls: int
     compile_kernels(make_learner(name, n_in, n_out, **params))  # off the clock, as the service does
     model = make_learner(name, n_in, n_out, **params)
     model.serve_live()
-    live_predict, live_learn = timed_calls(model, *lesson)
+    live_predict, live_learn, live_learn_cpu = timed_calls_cpu(model, *lesson)
     settle(model)
     predict, learn = timed_calls(model, *after)
     out = {"predict_ms": float(np.median(predict)), "predict_p99_ms": float(np.percentile(predict, 99)),
            "learn_ms": float(np.median(learn)), "predict_live_ms": float(np.mean(live_predict)),
-           "learn_live_ms": float(np.mean(live_learn)),
+           "learn_live_ms": float(np.mean(live_learn)), "learn_live_cpu_ms": live_learn_cpu,
            "answer_live_p99_ms": float(np.percentile(live_predict + live_learn, 99)), "learn_offline_ms": float("nan")}
     if offline:
         _, offline_learn = timed_calls(make_learner(name, n_in, n_out, **params), *lesson)
@@ -98,12 +106,12 @@ def measure(quick: bool) -> tuple[list[tuple], dict]:
 
 def print_table(rows: list[tuple]) -> None:
     print(f"\n{'learner (ms per call)':<50}{'warm: predict':>14}{'p99':>8}{'learn':>8}"
-          f"{'lesson live: predict':>22}{'learn':>8}{'p99':>8}{'offline learn':>15}")
+          f"{'lesson live: predict':>22}{'learn':>8}{'cpu':>8}{'p99':>8}{'offline learn':>15}")
     for shape, shown, c in rows:
         print(f"{shape:<18}{shown:<32}{c['predict_ms']:>14.3f}{c['predict_p99_ms']:>8.3f}{c['learn_ms']:>8.3f}"
-              f"{c['predict_live_ms']:>22.3f}{c['learn_live_ms']:>8.3f}{c['answer_live_p99_ms']:>8.3f}"
-              f"{c['learn_offline_ms']:>15.3f}")
+              f"{c['predict_live_ms']:>22.3f}{c['learn_live_ms']:>8.3f}{c['learn_live_cpu_ms']:>8.3f}"
+              f"{c['answer_live_p99_ms']:>8.3f}{c['learn_offline_ms']:>15.3f}")
     print(f"warm: medians once taught {WARM_SAMPLES} samples of a smooth map (p99: a done fit applied in the call); "
           "lesson live: means over those samples served live, fits on the fitter's thread: what the service's "
-          "answer path pays (p99: predict + learn); offline: learn_one's mean over the lesson with fits inline "
-          "(full runs only)")
+          "answer path pays (cpu: learn's, the caller's thread's own; p99: predict + learn); offline: learn_one's "
+          "mean over the lesson with fits inline (full runs only)")

@@ -18,9 +18,11 @@ answering leaf's length scales. `memory` is each leaf's: an answer costs one lea
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
-from .base import Learner, Prediction, Predictions, fade_toward
+from .base import Learner, Prediction, Predictions, TaughtRange, fade_toward
 from .gp_local import LocalGP
 from .registry import register
 
@@ -110,7 +112,7 @@ class GP(Learner):
 
     def _take_split(self, k: int) -> None:
         """Apply a split leaf k's last fit proposed (gp_split), if there is room: served live, the fit that
-        proposes it ends on the fitter's thread, to be collected by the leaf's next call, learning or not."""
+        proposes it ends in the fitter's process, to be collected by the leaf's next call, learning or not."""
         part = self._parts[k]
         split, part.proposed_split = part.proposed_split, None
         if split is not None and len(self._parts) < self.leaves:
@@ -145,8 +147,33 @@ class GP(Learner):
             each.may_split = room
         return True
 
+    def holding(self, value: float, seed: int) -> GP:
+        """A copy of this single-output GP, taught nothing but 0.0 so far, as it would be had every target
+        been `value` (and built with `seed`): a GP taught one value never fits nor factors, so only its
+        remembered targets, running statistics and taught range say what the value was (per_output shares
+        one GP among outputs held still). The tree's taught mean becomes `value` itself, which learn_many
+        would have reached to rounding."""
+        leaf = self._parts[0]
+        if self.n_out != 1 or len(self._parts) != 1 or leaf._factored:
+            raise ValueError("only a one-output GP taught a single value can be held at another")
+        twin = copy.deepcopy(self)  # as a snapshot is taken: fitting in the caller's thread
+        twin._parts[0]._background = leaf._background  # served live, as this one (its fitting processes are up)
+        target = np.array([float(value)])
+        for each in (twin, twin._parts[0]):
+            each.seed = int(seed)
+            if each._n_learned:
+                each._taught = TaughtRange(1)
+                each._taught.learn(target)
+                each._taught_mean = target.copy()
+        leaf = twin._parts[0]
+        leaf._ys[:leaf._m] = target
+        if leaf._y_count:
+            leaf._y_mean = target.copy()
+        leaf._answer_cache = None
+        return twin
+
     def serve_live(self) -> None:
-        """Every leaf fits on the fitter's thread (gp_local.LocalGP.serve_live), and so do the halves of a split."""
+        """Every leaf fits in the fitter's process (gp_local.LocalGP.serve_live), and so do the halves of a split."""
         for part in self._parts:
             part.serve_live()
 
@@ -159,7 +186,7 @@ class GP(Learner):
         x = np.asarray(x, dtype=np.float64)
         if x.shape != (self.n_in,) or not np.isfinite(x).all():
             return super().predict_one(x)  # raises the contract's error
-        k = self._leaf_of(x)
+        k = self._leaf_of(x) if len(self._parts) > 1 else 0  # one leaf holds every x
         part = self._parts[k]
         p = part.predict_one(x)
         if part.proposed_split is not None:

@@ -165,7 +165,7 @@ def fit_memory(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, pri
                noise_floor: float, max_iterations: int, noise_ceiling: np.ndarray | None = None) -> Hyper:
     """The hyper-parameters for remembered samples xs (m, n_in), ys (m, n_out), fitted on up to
     `fit_points` of them spread over the memory (see fit_rows). A pure function of its arguments, so it
-    may run on another thread."""
+    may run in another process."""
     rows = spread_rows(len(xs), fit_points)
     return fit_rows(xs[rows], ys[rows], last, prior_ell_sd, noise_floor, max_iterations, noise_ceiling)[0]
 

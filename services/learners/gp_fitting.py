@@ -1,13 +1,19 @@
 """When a GP leaf (gp_local.LocalGP) refits its hyper-parameters, and where: after `first_fit` samples and
 then each time half as many again, early when the teaching surprises the fit or spreads an input further
 than the fit saw, with a search for a split (gp_split) at each doubling of what the leaf learned; in the
-caller's thread offline (deterministic), on the fitter's and splitter's threads when serving live, each
+caller's thread offline (deterministic), in the fitter's and splitter's processes when serving live, each
 fit applied at the leaf's next call once done.
 """
 from __future__ import annotations
 
+import logging
 import math
-from concurrent.futures import ThreadPoolExecutor
+import multiprocessing
+import os
+import threading
+import time
+from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from functools import partial
 
 import numpy as np
@@ -29,26 +35,61 @@ SPREAD_GROWTH = 2.0
 NOISE_SHARE_OF_NEAR = 0.5
 MIN_SPLIT_SAMPLES = 64  # remembered, before a leaf weighs a split (and 8 per input): fewer fit noisily
 
-_FITTER: ThreadPoolExecutor | None = None
-_SPLITTER: ThreadPoolExecutor | None = None
+_POOLS: dict[str, Executor] = {}
+PARENT_POLL_S = 0.5  # how often a fitting process checks that the learner's process is still there
 
 
-def _fitter() -> ThreadPoolExecutor:
-    """One thread for every GP of the process that serves live: fits queue rather than crowd the cores."""
-    global _FITTER
-    if _FITTER is None:
-        _FITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-fit")
-    return _FITTER
+def _pool(name: str) -> Executor:
+    """A process of its own (spawned: nothing forks after a Zenoh session is open) for every GP of the process
+    that serves live: fits queue rather than crowd the cores. On a thread of the learner's process (until issue
+    34), a fit's Python held the GIL the answer path waited for: the mirroring student, taught live, spent
+    0.83 ms a tick answering and 1.34 ms learning where a fit in a process of its own left 0.22 and 1.02 (its
+    own CPU a tick 0.80 and 0.74 ms; benchmarks/lib/learner_costs.py, one session). A pool whose process died
+    is started again; where no process can start (a script without a `__main__` guard, which spawn imports
+    again), a thread does the work as before."""
+    pool = _POOLS.get(name)
+    if pool is None or getattr(pool, "_broken", False):
+        pool = _POOLS[name] = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
+                                                  initializer=_outlive_not, initargs=(os.getpid(),))
+    return pool
 
 
-def _splitter() -> ThreadPoolExecutor:
+def _outlive_not(parent: int) -> None:
+    """In a fitting process: exit once the learner's process is gone (killed, its queue's pipe stays open here)."""
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(0)
+    threading.Thread(target=watch, name="gp-fit-parent", daemon=True).start()
+
+
+def _fitter() -> Executor:
+    return _pool("fit")
+
+
+def _splitter() -> Executor:
     """One more for the search for splits (gp_split: five fits where a refit is one), so that no refit waits
     behind one: under load a correction's refit queued behind searches, and the corrected ball-seeking
     student went on asking about the orange ball (21 % of its ticks, where it had been 0)."""
-    global _SPLITTER
-    if _SPLITTER is None:
-        _SPLITTER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gp-split")
-    return _SPLITTER
+    return _pool("split")
+
+
+def _submit(pool, job, *args):
+    """pool().submit, on a new pool if the last one broke (its process killed) meanwhile."""
+    try:
+        return pool().submit(job, *args)
+    except BrokenProcessPool:
+        return pool().submit(job, *args)
+
+
+def start_fitting() -> None:
+    """Start the fitting processes now (serve_live: at a service's start, not at its first taught tick)."""
+    for name in ("fit", "split"):
+        try:
+            _pool(name).submit(int).result()
+        except (BrokenProcessPool, OSError, RuntimeError) as err:
+            logging.getLogger(__name__).warning("GP fits on a thread: no process for them (%s)", err)
+            _POOLS[name] = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"gp-{name}")
 
 
 class Refitting:
@@ -78,9 +119,11 @@ class Refitting:
         self._surprise += (min(float(z2.max()), 25.0) - self._surprise) / SURPRISE_REFIT_GAP
 
     def serve_live(self) -> None:
-        """Fit hyper-parameters on another thread from now on (a fit takes up to seconds; the loop must
+        """Fit hyper-parameters in another process from now on (a fit takes up to seconds; the loop must
         not wait), applying each at the next call once done. Offline use stays synchronous and
         deterministic."""
+        if not self._background:
+            start_fitting()
         self._background = True
 
     @property
@@ -98,7 +141,7 @@ class Refitting:
         # the teacher is assumed right: what it shows inconsistently beyond the ceiling is to be learned
         share = NOISE_SHARE_OF_NEAR * self.near if self.noise_ceiling is None else self.noise_ceiling
         ceiling = share * self._taught.span
-        # served live, a search still under way on the splitter's thread leaves the check due for the next fit:
+        # served live, a search still under way in the splitter's process leaves the check due for the next fit:
         # consumed unsearched, in lockstep teaching the searches fell so far behind that a pendulum taught
         # 4000 ticks was never split and its student, sure and wrong, scored 0.46 (1.00 offline)
         consider = self.may_split and self._m >= max(MIN_SPLIT_SAMPLES, 8 * self.n_in) and \
@@ -111,12 +154,12 @@ class Refitting:
         if not self._background:
             self._adopt(job(consider), seen)
             return
-        self._pending = (_fitter().submit(job, False), seen)
+        self._pending = (_submit(_fitter, job, False), seen)
         if consider:
-            self._searching = _splitter().submit(job, True)
+            self._searching = _submit(_splitter, job, True)
 
     def _collect(self) -> None:
-        """Apply a fit done on the fitter's thread (a failed one leaves the last fit in place). If
+        """Apply a fit done in the fitter's process (a failed one leaves the last fit in place). If
         teaching went on while it ran, fit again: when teaching stops, the last fit has seen it all."""
         if self._searching is not None and self._searching.done():
             done, self._searching = self._searching, None
@@ -152,5 +195,6 @@ class Refitting:
         self._ratio = max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), self.noise_floor)
         self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
         self._surprise = 0.0
+        self._answer_cache = None
         if rebuild:
             self._rebuild()

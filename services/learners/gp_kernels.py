@@ -14,6 +14,8 @@ import math
 import numba as nb
 import numpy as np
 
+from .novelty import EXPERIENCED_SDS
+
 FAST_MATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
@@ -62,9 +64,8 @@ def append(xs, chol, beta, m, x, residual, inv_ell, centre, smooth, linear, rati
     # rounding can make a near-duplicate's pivot vanish; the noise ratio is its floor
     pivot2 = max(prior + ratio - explained, ratio)
     pivot = math.sqrt(pivot2)
-    for j in range(m):
-        chol[m, j] = v[j]
-        chol[j, m] = 0.0
+    for j in range(m):  # the upper triangle is zero already (every factor written is lower triangular): a
+        chol[m, j] = v[j]  # column of writes a row apart took half the call at 800 samples
     chol[m, m] = pivot
     for o in range(beta.shape[1]):
         acc = 0.0
@@ -88,3 +89,68 @@ def predict_one(xs, chol, beta, m, x, inv_ell, centre, smooth, linear, ratio, of
             acc += v[j] * beta[j, o]
         offset[o] = acc
     return max(prior + ratio - explained, ratio)
+
+
+@nb.njit(cache=True, nogil=True)  # no fast-math: the same rounding as LocalGP._answer's numpy
+def answer_one(offset, unit_var, mu, amplitude2, ratio, near_span, hold, floor, ceiling, x, envelope_mean,
+               envelope_sd, counted, novelty_scale, ramp, y, sd):
+    """One query's answer from its posterior offsets and unit variance, as LocalGP._answer gives it: y the
+    mean (held to [floor, ceiling] when `hold`), sd the predictive sd per output; returns the confidence:
+    erf(near_span / map sd) for the least sure output, times the envelope's novelty discount along the
+    `counted` inputs (novelty.InputEnvelope.beyond_inputs; novelty_scale 0: none) and `ramp`."""
+    map_var = max(unit_var - ratio, 0.0)
+    confidence = 1.0
+    for o in range(offset.shape[0]):
+        sd[o] = math.sqrt(unit_var * amplitude2[o])
+        map_sd = math.sqrt(map_var * amplitude2[o])
+        sure = math.erf(near_span[o] / map_sd) if map_sd > 0.0 else 1.0
+        confidence = min(confidence, sure)
+        value = mu[o] + offset[o]
+        y[o] = min(max(value, floor[o]), ceiling[o]) if hold else value
+    if novelty_scale > 0.0:
+        total = 0.0
+        for i in range(x.shape[0]):
+            if counted[i]:
+                excess = max(abs(x[i] - envelope_mean[i]) - EXPERIENCED_SDS * envelope_sd[i], 0.0)
+                total += excess * excess
+        confidence *= math.exp(-0.5 * total / (novelty_scale * novelty_scale))
+    return confidence * ramp
+
+
+@nb.njit(cache=True, nogil=True)
+def near_any(xs, ys, m, x, y, x_tolerance, y_tolerance):
+    """Whether some row j < m has |xs[j] - x| <= x_tolerance and |ys[j] - y| <= y_tolerance everywhere."""
+    for j in range(m):
+        near = True
+        for i in range(x.shape[0]):
+            if not abs(xs[j, i] - x[i]) <= x_tolerance[i]:
+                near = False
+                break
+        if near:
+            for o in range(y.shape[0]):
+                if not abs(ys[j, o] - y[o]) <= y_tolerance[o]:
+                    near = False
+                    break
+        if near:
+            return True
+    return False
+
+
+@nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
+def gram(xs, m, inv_ell, centre, smooth, linear, out):
+    """The lower triangle (diagonal included) of the kernel matrix over the first m rows of xs, into
+    out[:m, :m], each entry as kernel_row computes it; the upper triangle is left as it was."""
+    n = xs.shape[1]
+    z = np.empty((m, n))
+    for j in range(m):
+        for i in range(n):
+            z[j, i] = (xs[j, i] - centre[i]) * inv_ell[i]
+    for a in range(m):
+        for b in range(a + 1):
+            d2 = 0.0
+            dot = 0.0
+            for i in range(n):
+                diff = z[a, i] - z[b, i]
+                d2 += diff * diff
+                dot += z[a, i] * z[b, i]
+            out[a, b] = smooth * math.exp(-0.5 * d2) + linear * dot

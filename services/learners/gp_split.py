@@ -49,7 +49,7 @@ def fit_and_split(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, 
     """The leaf's fit (gp_evidence.fit_rows on up to `fit_points` rows spread over its memory) and, when
     `consider`, the best cut (at the middle of the range of one of the CANDIDATES inputs) that removes
     MIN_GAIN of the leave-one-out error between halves that disagree on what matters, else None. A pure
-    function: it runs on the fitter's thread when serving live."""
+    function: it runs in the fitter's process when serving live."""
     rows = spread_rows(len(xs), fit_points)
     xs, ys = xs[rows], ys[rows]
     settings = (prior_ell_sd, noise_floor, max_iterations, noise_ceiling)

@@ -47,6 +47,14 @@ class InputEnvelope:
         n = xs.shape[0]
         if n == 0:
             return
+        if n == 1:  # the batch merge for one row, without its zero scatter: the same numbers, a third of the time
+            total = self.count + 1
+            delta = xs[0] - self.mean
+            self.scatter += np.outer(delta, delta) * (self.count / total)
+            self.mean += delta / total
+            self.count = total
+            self._axes = None
+            return
         batch_mean = xs.mean(axis=0)
         centred = xs - batch_mean
         total = self.count + n
