@@ -115,3 +115,11 @@ def decode(cls: type[T], raw: bytes, key: str, dims: dict[str, int] | None = Non
         check(key)
     return msg
 
+
+
+def decoded(cls: type[T], key: str, raw: bytes) -> T | None:
+    """decode(), or None for bytes that do not decode as `cls` (anyone may have put anything on a key)."""
+    try:
+        return decode(cls, raw, key)
+    except ValueError:  # SchemaError is one
+        return None

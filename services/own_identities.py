@@ -20,11 +20,11 @@ import json
 import os
 import re
 import stat
-import time
 from pathlib import Path
 
 from services.certificates import make_certs, private_folder, write_private
 from services.security import ROLES
+from services.waiting import poll
 
 HOME_ENV = "DOGGED_HOME"
 ROLE_ENV = "DOGGED_ROLE"  # the role a box run by hand shows (`dogged run <box>` sets it); else operator
@@ -91,6 +91,14 @@ def secured_endpoint(endpoint: str) -> str:
     return f"{SECURE_SCHEME}/{rest}" if scheme == "tcp" else endpoint
 
 
+def _replace_private(path: Path, data: bytes) -> Path:
+    """`path` written anew, this user's alone from its first byte (one left by a process gone is replaced)."""
+    with contextlib.suppress(FileNotFoundError):
+        path.unlink()
+    write_private(path, data)
+    return path
+
+
 def _record_path(endpoint: str) -> Path:
     host_port = endpoint.split("/", 1)[-1].replace("[", "").replace("]", "").replace(":", "-")
     return home() / "up" / f"{host_port}.json"
@@ -99,14 +107,10 @@ def _record_path(endpoint: str) -> Path:
 def announce(endpoint: str, security: Path | None, roster: list[str], profile: str) -> Path:
     """Say, for this user's verbs, that a profile's router runs at `endpoint`, with which security and
     roster."""
-    folder = private_folder(private_home() / "up")
-    path = _record_path(endpoint)
-    with contextlib.suppress(FileNotFoundError):
-        path.unlink()  # a stale one (its supervisor died without a word)
+    private_folder(private_home() / "up")
     record = {"router": endpoint, "security": str(security) if security else None, "roster": roster,
               "profile": profile, "pid": os.getpid()}
-    write_private(folder / path.name, json.dumps(record).encode())
-    return path
+    return _replace_private(_record_path(endpoint), json.dumps(record).encode())
 
 
 def withdraw(endpoint: str) -> None:
@@ -139,13 +143,13 @@ def wait_announced(profile_file: Path, router: str | None, supervisor, timeout: 
     profile = load_profile(profile_file, router, check_security=False)
     if not profile.own_security:
         return
-    deadline = time.monotonic() + timeout
-    while running_at(profile.router) is None:
+
+    def announced() -> bool:
         if supervisor.poll() is not None:
             raise RuntimeError(f"`dogged up {profile_file}` exited with {supervisor.returncode} before its router ran")
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"`dogged up {profile_file}` did not announce its router within {timeout:.0f} s")
-        time.sleep(0.05)
+        return running_at(profile.router) is not None
+    if not poll(announced, timeout):
+        raise TimeoutError(f"`dogged up {profile_file}` did not announce its router within {timeout:.0f} s")
 
 
 def identity_for_connecting(endpoint: str) -> tuple[str, Path, str, list[str]] | None:
@@ -160,7 +164,7 @@ def identity_for_connecting(endpoint: str) -> tuple[str, Path, str, list[str]] |
     if not (folder / f"{cn}.key").is_file():
         return None
     roster = record.get("roster")
-    if not isinstance(roster, list) or not all(isinstance(cn, str) for cn in roster):
+    if not isinstance(roster, list) or not all(isinstance(member, str) for member in roster):
         return None
     return record["router"], folder, cn, roster
 
@@ -169,12 +173,7 @@ def note_page(port: int, address: str) -> Path | None:
     """Keep a page's address with its token where only this user reads it; None if the folder is not
     this user's alone (then the console of `dogged up` is the one place it is shown)."""
     try:
-        folder = private_folder(private_home() / "pages")
-        path = folder / f"{port}.url"
-        with contextlib.suppress(FileNotFoundError):
-            path.unlink()  # a page's before, on the same port
-        write_private(path, address.encode())
-        return path
+        return _replace_private(private_folder(private_home() / "pages") / f"{port}.url", address.encode())
     except (NotPrivate, OSError):
         return None
 
@@ -190,11 +189,9 @@ def page_address(port: int, wait_s: float = 0.0) -> str:
     """The address a person opens for this user's page on `port`: with its token when the page needs one
     (waiting up to `wait_s` for a page just started to say it); without, when it needs none."""
     path = home() / "pages" / f"{port}.url"
-    deadline = time.monotonic() + wait_s
-    while True:
-        try:
+
+    def kept() -> str | None:
+        with contextlib.suppress(OSError):
             return path.read_text()
-        except OSError:
-            if time.monotonic() >= deadline:
-                return f"http://localhost:{port}/"
-            time.sleep(0.05)
+        return None
+    return poll(kept, wait_s) or f"http://localhost:{port}/"

@@ -14,7 +14,7 @@ from pathlib import Path
 import zenoh
 
 from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, RobotKeys, RobotState, Status,
-                        TeachSwitch, decode, encode)
+                        TeachSwitch, decode, decoded, encode)
 from services.bus.config import zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
 from services.own_identities import wait_announced
@@ -183,10 +183,3 @@ def caught_up(statuses: list, since: float) -> bool:
         return False
     status = decoded(Status, statuses[-1][0], statuses[-1][1])
     return status is not None and status.counters.get("upkeep_under_way", 1) == 0
-
-
-def decoded(cls, key: str, raw: bytes):
-    try:
-        return decode(cls, raw, key)
-    except ValueError:  # SchemaError is one
-        return None

@@ -14,7 +14,7 @@ import numpy as np
 import zenoh
 
 from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKeys, RobotState, SchemaError,
-                        TeachSwitch, decode, encode, supervisor_key, supervisor_token)
+                        TeachSwitch, decode, decoded, encode, supervisor_key, supervisor_token)
 from services.bus.config import DEFAULT_ROUTER, zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
 from services.bus.queries import ask_owner
@@ -315,24 +315,16 @@ def arena(args) -> int:
             return 1
         before = len(states)
         pub.put(encode(ArenaReset(args.seed, balls)))
-        if poll(lambda: reset_confirmed(decoded_states(states, keys.state), before, balls), 10, 0.1):
+
+        def confirmed() -> bool:
+            return reset_confirmed([decoded(RobotState, keys.state, raw) for raw in list(states)], before, balls)
+        if poll(confirmed, 10, 0.1):
             said = ", ".join(f"{n} {'off' if xy is None else xy}" for n, xy in balls.items())
             print(f"arena {args.seed}: {said or 'balls as seeded'}")
             return 0
         del held
     print(f"the robot did not confirm the arena reset; see `dogged logs {args.robot}`", file=sys.stderr)
     return 1
-
-
-def decoded_states(raw: list[bytes], key: str) -> list[RobotState | None]:
-    """The robot's states as they came (None for one that does not decode: anyone may put on the key)."""
-    out = []
-    for payload in list(raw):
-        try:
-            out.append(decode(RobotState, payload, key))
-        except SchemaError:
-            out.append(None)
-    return out
 
 
 def reset_confirmed(states: list[RobotState | None], asked_at: int, balls: dict) -> bool:

@@ -212,13 +212,11 @@ def ensure_security(profile: Profile) -> None:
     """At `dogged up`: a profile secured by this user's own identities gets those it lacks; then every
     secured profile is checked (ProfileError saying what is missing or wrong)."""
     if profile.own_security:
-        from services.certificates import CA_KEY
         from services.own_identities import NotPrivate, ensure_identities
         try:
             ensure_identities(profile.identities())
         except (NotPrivate, ValueError, OSError) as err:
             raise ProfileError(f"zenoh.security: this user's own identities: {err}") from None
-        assert not (profile.security / CA_KEY).exists()
     check_security_files(profile)
 
 
