@@ -51,6 +51,8 @@ class AiboLoop(PlatformLoop):
             super().publish_input()
         else:  # the frame is the tick: perception answers it with the input
             self.publish_frame(self.next_tick())
+
+    def after_tick(self):
         self.publish_robot_streams()
 
     def publish_frame(self, tick: int):

@@ -107,6 +107,10 @@ class PlatformLoop:
     def show_mode(self, mode: str) -> None:
         """The robot shows the arbitrator's mode (the Aibo's ears); plain platforms have nothing to show."""
 
+    def after_tick(self) -> None:
+        """What the robot says besides its input (the Aibo's camera, clock and state): run once the tick is
+        answered, or half a period on, so that none of it delays the input's way to its command."""
+
     def advance(self, dt, watchdog):
         fresh = self.latest is not None and self.latest.tick > self.applied_tick \
             and time.monotonic() - self.latest_at <= watchdog
@@ -172,6 +176,7 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
     # waits for a commanding arbitrator and for that moment, so no command goes where we are not yet
     settled_at = next_tick + SUBSCRIPTION_SETTLE_S
     arbitrators: set[str] = set()
+    after_tick_at = None  # the tick's own work is done by then at the latest (after_tick)
     while not stop:
         now = time.monotonic()
         waiting = loop.tick == 0 and (not arbitrators or now < settled_at)  # hold still, lose no tick
@@ -181,13 +186,17 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
         if max_ticks and loop.tick >= max_ticks and (answered or now >= next_tick + watchdog):
             break  # the last tick is answered (or will never be): done
         if not waiting and (now >= next_tick or (period is None and answered)):
+            if after_tick_at is not None:  # never skipped: a tick's streams go out before the next tick
+                loop.after_tick()
             if loop.tick:
                 loop.advance(dt, watchdog)
             if not (max_ticks and loop.tick >= max_ticks):
                 loop.publish_input()
+            after_tick_at = now + (period or watchdog) / 2
             # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
             next_tick = max(next_tick + period, now) if period else now + watchdog
-        for tag, key, raw, kind in inbox.drain(max(0.0, next_tick - time.monotonic())):
+        wake = next_tick if after_tick_at is None else min(next_tick, after_tick_at)
+        for tag, key, raw, kind in inbox.drain(max(0.0, wake - time.monotonic())):
             if tag == "spaces":
                 raw.reply(spaces_key, spaces_payload)
             elif tag == "arbitrator":
@@ -196,6 +205,10 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
                 loop.on_command(key, raw)
             else:
                 handlers[tag](key, raw)
+        if after_tick_at is not None and (time.monotonic() >= after_tick_at or
+                                          (loop.latest is not None and loop.latest.tick >= loop.tick)):
+            loop.after_tick()
+            after_tick_at = None
         status.maybe_publish(loop.status)
     return held
 
