@@ -75,6 +75,13 @@ def test_up_ps_sigkill_restart_down(tmp_path):
         before = probe.counter("learner/learner", "proposals")
         probe.wait_for(lambda: probe.counter("learner/learner", "proposals") > before + 100, 30, "proposals again")
         assert probe.counter("learner/learner", "pairs_lost") == 0
+        # while the learner was down the arbitrator decided without it: ps says how many ticks, and their share
+        ticks = wait(lambda: (t := ps(endpoint)["arbitrator"].get("ticks", {})).get("without_learner") and t, 10,
+                     "the ticks without the learner in ps")
+        assert 0 < ticks["without_learner_pct"] < 100, ticks
+        arbitrator_line = next(line for line in dogged_ok("ps", endpoint=endpoint).stdout.splitlines()
+                               if line.startswith("arbitrator"))
+        assert "without_learner=" in arbitrator_line and "without_learner_pct=" in arbitrator_line, arbitrator_line
 
         logs = dogged_ok("logs", "learner", "-n", "400", endpoint=endpoint)
         assert "exited with -9" in logs.stdout and "replayed" in logs.stdout

@@ -133,6 +133,10 @@ def not_running_row(name: str, box: str, state: str, **fields) -> dict:
 
 
 def tick_counters(status: dict) -> dict:
-    """A platform's lost and stale ticks, as its status counts them."""
+    """A platform's lost and stale ticks, as its status counts them; an arbitrator's ticks decided without the
+    learner's proposal (past the deadline, the learner not waited for, or none alive), and their share in %."""
     counters = status.get("counters", {})
-    return {k: counters[k] for k in ("lost_ticks", "stale_commands") if k in counters}
+    out = {k: counters[k] for k in ("lost_ticks", "stale_commands", "without_learner") if k in counters}
+    if "without_learner" in out and counters.get("commands"):
+        out["without_learner_pct"] = round(100 * out["without_learner"] / counters["commands"], 2)
+    return out
