@@ -100,3 +100,17 @@ def test_another_user_of_the_machine_can_read_none_of_this_users_identities(own_
         assert tried.returncode != 0 and "Permission denied" in tried.stderr, f"user {NOBODY} read {path}"
     listed = subprocess.run(["ls", str(identities_dir())], user=NOBODY, capture_output=True, text=True)
     assert listed.returncode != 0 and "Permission denied" in listed.stderr
+
+
+def test_an_observer_on_the_secured_bus_writes_nothing_of_zenoh_on_its_stdout(own_profile):
+    """A peer that is not a service (a benchmark's observer) enforces access control as every peer does, but
+    no supervisor reads its stdout: Zenoh's lines of who linked to it went into a benchmark's output, whose
+    last line must be its JSON figures."""
+    endpoint, _ = own_profile
+    observer = ("import time, zenoh; from services.bus.config import zenoh_config\n"
+                f"with zenoh.open(zenoh_config(connect=['{endpoint}'], mode='peer')) as s:\n"
+                "    s.declare_subscriber('dl/main/**', lambda sample: None); time.sleep(3)\n"
+                "print('END')")
+    done = subprocess.run([sys.executable, "-c", observer], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "END\n", done.stdout[:2000]

@@ -19,7 +19,7 @@ def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTE
     log = setup_logging("router", "router")
     stop = StopFlag()
     try:
-        session = zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router"))
+        session = zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router", tell_refusals=True))
     except zenoh.ZError as err:  # a port another program holds, a mistyped endpoint
         log.error("%s %s: %s", CANNOT_LISTEN, ", ".join(listen), str(err).split(" at /")[0])
         return 2

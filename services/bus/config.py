@@ -56,14 +56,15 @@ def resolved_mode(mode: str, connect: list[str] | None) -> str:
 
 def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
                  give_up_after: float | None = None, security: Path | None = None,
-                 identity: str | None = None) -> zenoh.Config:
+                 identity: str | None = None, tell_refusals: bool = False) -> zenoh.Config:
     """Multicast scouting off; explicit endpoints on 127.0.0.1 unless told otherwise. With `security`
     (a `dogged certs` directory, or one identity's folder of it; default $DOGGED_SECURITY) and `identity`
     (this process's certificate; default $DOGGED_IDENTITY), mutual TLS, and the router and every peer
     enforcing who may say what for the roster ($DOGGED_ROSTER, else the directory's identities;
     services/security.py): peers link directly, so each checks what reaches it. A service (or a router
     linked to another machine's) keeps trying what it connects to; with `give_up_after` (seconds)
-    opening fails instead."""
+    opening fails instead. `tell_refusals`: a service's (or router's) Zenoh writes what access control refused
+    on its stdout, its log, which its supervisor counts; an observer's or a verb's would only fill a terminal."""
     secured = security or os.environ.get("DOGGED_SECURITY")
     identity = identity or os.environ.get("DOGGED_IDENTITY")
     mode = resolved_mode(mode, connect)
@@ -81,7 +82,7 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
         # a peer links straight to other peers, so it enforces the access control itself, as the router does
         enforce = mode in ("router", "peer")
         secure(conf, Path(secured), identity, (members or roster(Path(secured))) if enforce else None)
-        if enforce:  # what it refuses, its supervisor counts from its log
+        if enforce and tell_refusals:  # what it refuses, its supervisor counts from its log
             log_refusals()
         if mode == "peer":  # other peers link to it over TLS too
             listen = [endpoint.replace("tcp/", "tls/", 1) for endpoint in (listen or [LOCAL_LISTEN])]
@@ -121,4 +122,4 @@ def own_profile(connect: list[str] | None) -> tuple[list[str], Path, str, list[s
 
 def config_from_args(args: argparse.Namespace) -> zenoh.Config:
     use_certificate(args)
-    return zenoh_config(args.connect, args.listen, args.mode, args.zenoh_config)
+    return zenoh_config(args.connect, args.listen, args.mode, args.zenoh_config, tell_refusals=True)
