@@ -34,11 +34,11 @@ from services.demo.ballseek import run_ballseek_live  # noqa: E402
 from services.demo.mirroring import start_mirroring  # noqa: E402
 from services.experiments.wiring import wired_learner  # noqa: E402
 from services.learners import compile_kernels, make_learner  # noqa: E402
-from services.recording.cli import compare  # noqa: E402
-from services.recording.compare import table  # noqa: E402
 from services.recording.reader import iter_samples, run_files  # noqa: E402
-from services.recording.replay import learner_from_spec, replay, schedule  # noqa: E402
 from services.recording.runs import load_run  # noqa: E402
+from services.replay.cli import compare  # noqa: E402
+from services.replay.compare import table  # noqa: E402
+from services.replay.replay import learner_from_spec, replay, schedule  # noqa: E402
 from services.teachers import make_teacher  # noqa: E402
 from services.waiting import poll  # noqa: E402
 from tests.harness import free_port  # noqa: E402

@@ -17,7 +17,7 @@ from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, Robo
                         TeachSwitch, decode, decoded, encode)
 from services.bus.config import zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
-from services.own_identities import wait_announced
+from services.supervisor.commands import wait_announced
 from services.waiting import poll
 
 REPO = Path(__file__).resolve().parents[2]

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bus_schema import Spaces
-from services.boxes.chain import Easing
+from services.chaining import Easing
 from services.experiments import ballseek_protocol as protocol
 from services.experiments.ballseek import BallWorld
 from services.experiments.ballseek_protocol import WorldStage
