@@ -6,11 +6,11 @@ import sys
 
 import pytest
 
+from rigs.harness import REPO
 from services import cli
 from services.boxes import demonstrator, ui
 from services.replay import cli as replay_cli
 from services.supervisor import commands
-from tests.harness import REPO
 
 ENDPOINT = "tcp/127.0.0.1:1"  # nothing listens there: nothing in these tests may reach a bus
 BUS_FLAGS = ["--connect", ENDPOINT, "--security", "certs", "--identity", "operator.alice"]

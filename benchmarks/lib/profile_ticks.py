@@ -20,10 +20,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.lib.hops import HopObserver, TickSeen, hop_medians_us
+from rigs.harness import Probe, free_port
 from services.demo.live import BusRecorder, LiveRun, when_ready
 from services.profiles import profile_path
 from services.supervisor.profile import Profile, ServiceSpec, load_profile
-from tests.harness import Probe, free_port
 
 PROFILES = ("mirroring", "ballseek", "hierarchy", "gym")
 # what the person switches on to teach: (instance, teacher; "" is every teacher of the instance). Mirroring's

@@ -23,7 +23,7 @@ from services.learners import make_learner
 from services.platforms.aibo.platform import MOVE_BOX, AiboPlatform
 from services.teachers.trot import TrotTeacher
 
-EPISODE_SECONDS = 20.0  # one episode with the ball, in process and live (services/demo/hierarchy.py)
+EPISODE_SECONDS = 20.0  # one episode with the ball, in process and live (rigs/live/hierarchy.py)
 
 
 class LegsUnderMovement:
