@@ -11,4 +11,5 @@ package; tests/test_wheel.py checks), so nothing in services or bus_schema impor
     faults.py       every service struck in turn under a running deployment (issue 12); fuzz.py, ten
                     thousand hostile payloads at it
     hosts.py        mirroring spread over hosts (issue 13), on netlab/'s network namespaces
+    imports.py      what a module imports, read with ast (the import graph's and the wheel's tests)
 """
