@@ -16,7 +16,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: rigs.*, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse  # noqa: E402
@@ -27,9 +27,9 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks.loop import run_platform  # noqa: E402
-from services.experiments.faults import KILLED, STOPPED, run_faults  # noqa: E402
+from rigs.faults import KILLED, STOPPED, run_faults  # noqa: E402
+from rigs.harness import dogged, free_port, stop  # noqa: E402
 from services.certificates import make_certs  # noqa: E402
-from tests.harness import dogged, free_port, stop  # noqa: E402
 
 QUICK_KILLED = ("learner", "arbitrator")
 LOOP = (("demonstrator", "teacher.sine", ("--teacher", "sine", "--name", "sine")),

@@ -1,6 +1,6 @@
-"""Mirroring spread over hosts (issue 13): network namespaces on one switch (services/netlab), the
+"""Mirroring spread over hosts (issue 13): network namespaces on one switch (rigs/netlab), the
 robot (router, Aibo at 30 Hz, handler), the brain (learner, arbitrator) and two teacher hosts, every
-link mutual TLS with access control (services/experiments/hosts.py). Needs root.
+link mutual TLS with access control (rigs/hosts.py). Needs root.
 
     sudo .venv/bin/python benchmarks/hosts.py [--quick]
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: rigs.*, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse  # noqa: E402
@@ -30,9 +30,9 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from services.experiments.hosts import (BRAIN_LINK, LOSSY_DEADLINE_MS, Hosts, Link, brain_partition,  # noqa: E402
+from rigs.hosts import (BRAIN_LINK, LOSSY_DEADLINE_MS, Hosts, Link, brain_partition,  # noqa: E402
                                         loop_window, teach_until_learned, teacher_partition)
-from services.netlab.lab import available  # noqa: E402
+from rigs.netlab.lab import available  # noqa: E402
 
 LOSSY = {"loss": 0.05, "jitter_ms": 20.0}
 

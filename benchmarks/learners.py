@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: rigs.*, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import numpy as np  # noqa: E402
@@ -25,7 +25,7 @@ from tqdm import tqdm  # noqa: E402
 
 from services.learners import LEARNERS, make_learner  # noqa: E402
 from benchmarks.lib import lwpr_percall, lwpr_reference, lwpr_versus  # noqa: E402
-from benchmarks.lib.tasks import (  # noqa: E402
+from rigs.tasks import (  # noqa: E402
     CROSS_LWPR_PARAMS, cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse,
     three_outputs, three_outputs_samples, worst_error,
 )

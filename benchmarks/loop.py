@@ -24,7 +24,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: rigs.*, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse
@@ -37,8 +37,8 @@ import numpy as np
 from benchmarks.lib.hops import DESCRIBED, HOPS, HopObserver  # noqa: E402
 from benchmarks.lib import learner_costs, profile_ticks, zenoh_echo  # noqa: E402
 from benchmarks.lib.udp_echo import round_trips  # noqa: E402
+from rigs.harness import Probe, dogged, free_port, stop  # noqa: E402
 from services.realtime import hold_low_latency, release_low_latency  # noqa: E402
-from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
 
 
 def udp_floor(count: int) -> np.ndarray:
@@ -69,7 +69,7 @@ def zenoh_floor(router: str, quick: bool) -> dict[float, np.ndarray]:
 
 def dogged_python(*args: str):
     import subprocess
-    from tests.harness import REPO
+    from rigs.harness import REPO
     return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 

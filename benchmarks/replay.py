@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: services.*, tests.harness
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: services.*, rigs.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse  # noqa: E402
@@ -30,18 +30,18 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from rigs.harness import free_port  # noqa: E402
+from rigs.live.mirroring import start_mirroring  # noqa: E402
 from services.demo.ballseek import run_ballseek_live  # noqa: E402
-from services.demo.mirroring import start_mirroring  # noqa: E402
 from services.experiments.wiring import wired_learner  # noqa: E402
 from services.learners import compile_kernels, make_learner  # noqa: E402
-from services.recording.cli import compare  # noqa: E402
-from services.recording.compare import table  # noqa: E402
 from services.recording.reader import iter_samples, run_files  # noqa: E402
-from services.recording.replay import learner_from_spec, replay, schedule  # noqa: E402
 from services.recording.runs import load_run  # noqa: E402
+from services.replay.cli import compare  # noqa: E402
+from services.replay.compare import table  # noqa: E402
+from services.replay.replay import learner_from_spec, replay, schedule  # noqa: E402
 from services.teachers import make_teacher  # noqa: E402
 from services.waiting import poll  # noqa: E402
-from tests.harness import free_port  # noqa: E402
 
 LEARNERS = {"mirroring": ("lwpr", "sogp", "knn"), "ballseek": ("lwpr", "gp", "knn")}
 TEACHERS = {"mirroring": "mirror", "ballseek": "ballseek"}

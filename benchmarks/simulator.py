@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.harness, benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: rigs.*, benchmarks.*
 import services  # noqa: E402,F401  (first: one BLAS thread per process, see services/__init__.py)
 
 import argparse
@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from bus_schema import Clock, decode  # noqa: E402
-from tests.harness import Probe, dogged, free_port, stop  # noqa: E402
+from rigs.harness import Probe, dogged, free_port, stop  # noqa: E402
 
 
 @contextlib.contextmanager

@@ -28,10 +28,10 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bus_schema import Frame, Proposal, decode  # noqa: E402
-from services.demo.page import start_ballseek_with_page, teach_click_to_bus  # noqa: E402
+from rigs.harness import free_port, wait_until  # noqa: E402
+from rigs.headless import open_page  # noqa: E402
+from rigs.live.page import start_ballseek_with_page, teach_click_to_bus  # noqa: E402
 from services.own_identities import page_address  # noqa: E402
-from services.ui.headless import open_page  # noqa: E402
-from tests.harness import free_port, wait_until  # noqa: E402
 
 
 def key_to_bus(run, page, presses: int) -> np.ndarray:

@@ -16,7 +16,7 @@ BOXES = {name: f"services.boxes.{name}" for name in BOX_ROLES}
 
 # verbs that parse their own arguments (`run` too): the module and function that do
 OWN_PARSERS = {"ui": ("services.boxes.ui", "cli"), "demo": ("services.demo", "cli"),
-               "replay": ("services.recording.cli", "replay_main"), "play": ("services.recording.cli", "play_main"),
+               "replay": ("services.replay.cli", "replay_main"), "play": ("services.replay.cli", "play_main"),
                "export": ("services.export.cli", "export_main"), "snapshot": ("services.export.cli", "snapshot_main")}
 
 

@@ -135,23 +135,6 @@ def running_at(endpoint: str) -> dict | None:
     return record if isinstance(record.get("router"), str) else None
 
 
-def wait_announced(profile_file: Path, router: str | None, supervisor, timeout: float = 60.0) -> None:
-    """Once `dogged up profile_file [--router router]` (the process `supervisor`) has said where its router
-    runs, if the profile is secured by this user's own identities: a session opened before would not know
-    to speak TLS. RuntimeError if the supervisor exits first (it refused the profile, say), TimeoutError."""
-    from services.supervisor.profile import load_profile
-    profile = load_profile(profile_file, router, check_security=False)
-    if not profile.own_security:
-        return
-
-    def announced() -> bool:
-        if supervisor.poll() is not None:
-            raise RuntimeError(f"`dogged up {profile_file}` exited with {supervisor.returncode} before its router ran")
-        return running_at(profile.router) is not None
-    if not poll(announced, timeout):
-        raise TimeoutError(f"`dogged up {profile_file}` did not announce its router within {timeout:.0f} s")
-
-
 def identity_for_connecting(endpoint: str) -> tuple[str, Path, str, list[str]] | None:
     """(the endpoint to connect to, the identity's folder, the identity, the profile's roster) when this
     user's profile at `endpoint` runs secured and this user has an identity of the role in its directory

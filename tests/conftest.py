@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from rigs.harness import REPO, dogged, free_port, stop
 from services.own_identities import HOME_ENV
-from tests.harness import REPO, dogged, free_port, stop
 
 COMPILE_EVERY_LEARNER = ("import services; from services.learners import LEARNERS, compile_kernels, make_learner; "
                          "[compile_kernels(make_learner(name, 2, 1)) for name in LEARNERS]")

@@ -4,9 +4,9 @@ import time
 import numpy as np
 
 from bus_schema import (Applied, ArenaReset, Command, Frame, Handle, RobotState, SpacesMessage, decode, encode)
+from rigs.harness import Probe, dogged, dogged_ok, stop
 from services.perception.jpeg import decode_rgb
 from services.platforms.aibo.sim import EAR_COLOURS
-from tests.harness import Probe, dogged, dogged_ok, stop
 
 
 def latest(bucket, cls, dims=None):

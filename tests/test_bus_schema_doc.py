@@ -3,7 +3,7 @@ import inspect
 
 import bus_schema
 from bus_schema import InstanceKeys, RobotKeys, messages
-from tests.harness import REPO
+from rigs.harness import REPO
 
 
 def test_every_message_class_is_documented():

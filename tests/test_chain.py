@@ -4,8 +4,8 @@ import time
 import numpy as np
 
 from bus_schema import Command, Input, SpacesMessage, decode, encode
+from rigs.harness import Probe, dogged, dogged_ok, stop
 from services.bus.queries import ask_owner
-from tests.harness import Probe, dogged, dogged_ok, stop
 
 
 def test_two_chained_instances_learn_and_drive_the_robot(router, tmp_path):

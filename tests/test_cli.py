@@ -6,11 +6,11 @@ import sys
 
 import pytest
 
+from rigs.harness import REPO
 from services import cli
 from services.boxes import demonstrator, ui
-from services.recording import cli as recording_cli
+from services.replay import cli as replay_cli
 from services.supervisor import commands
-from tests.harness import REPO
 
 ENDPOINT = "tcp/127.0.0.1:1"  # nothing listens there: nothing in these tests may reach a bus
 BUS_FLAGS = ["--connect", ENDPOINT, "--security", "certs", "--identity", "operator.alice"]
@@ -52,14 +52,14 @@ def test_the_boxes_take_the_bus_flags_before_and_after_the_verb(box, verb, own, 
 @pytest.mark.parametrize("order", ORDERS)
 def test_play_is_handed_the_bus_flags_in_either_order(order, monkeypatch):
     seen = []
-    monkeypatch.setattr(recording_cli, "play_main", lambda argv: seen.append(argv) or 0)
+    monkeypatch.setattr(replay_cli, "play_main", lambda argv: seen.append(argv) or 0)
     assert cli.main(in_order(order, ["play"], ["runs/x"], BUS_FLAGS)) == 0
     assert seen == [["runs/x", *BUS_FLAGS]]
 
 
 def test_play_takes_the_certificate_flags_too(tmp_path, capsys):
     """Its parser knew --connect only: --security and --identity were unrecognised arguments."""
-    assert recording_cli.play_main([str(tmp_path), *BUS_FLAGS]) == 2
+    assert replay_cli.play_main([str(tmp_path), *BUS_FLAGS]) == 2
     assert "no .mcap files" in capsys.readouterr().err
 
 

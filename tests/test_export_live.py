@@ -14,6 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from bus_schema import ArenaReset, Command, Input, Reward, Spaces, decode
+from rigs.harness import REPO, Probe, dogged, dogged_ok, free_port, stop
 from services.cli import main
 from services.demo.ballseek import start_ballseek
 from services.experiments.ballseek import BALLSEEK_RATE_HZ
@@ -21,7 +22,6 @@ from services.experiments.wiring import wired_learner
 from services.learners import load_student
 from services.recording.reader import iter_samples, read_metadata, spaces_in
 from services.recording.runs import load_run
-from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, stop
 from tests.test_supervisor import ps
 
 GYM_PROFILE = """

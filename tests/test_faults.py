@@ -1,9 +1,9 @@
 """The fault suite (issue 12): a real deployment at 30 Hz, a teacher teaching, every service struck
-in turn (services/experiments/faults.py); the counts a user depends on are asserted."""
+in turn (rigs/faults.py); the counts a user depends on are asserted."""
 import pytest
 
-from services.experiments.faults import run_faults
-from tests.harness import free_port
+from rigs.faults import run_faults
+from rigs.harness import free_port
 
 
 @pytest.fixture(scope="module")

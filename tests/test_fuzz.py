@@ -1,10 +1,10 @@
 """Ten thousand malformed and hostile payloads and query parameters over a running deployment with a
-teacher teaching (issue 12, services/experiments/fuzz.py): each refused and counted by exactly the
+teacher teaching (issue 12, rigs/fuzz.py): each refused and counted by exactly the
 services that read it, nothing exits or restarts, the loop keeps its rate, teaching still works."""
 import pytest
 
-from services.experiments.fuzz import run_fuzz
-from tests.harness import free_port
+from rigs.fuzz import run_fuzz
+from rigs.harness import free_port
 
 
 @pytest.fixture(scope="module")

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from bus_schema import Episode, InstanceKeys, decode
-from services.demo.live import caught_up
+from rigs.harness import Probe, dogged, dogged_ok, stop
+from rigs.live.fits import caught_up
 from services.experiments import gym
 from services.experiments.wiring import wired_learner
-from tests.harness import Probe, dogged, dogged_ok, stop
 
 ARBITRATOR = "arbitrator/arbitrator"
 # lockstep: each tick as soon as the last is answered (a few milliseconds), so no command is late. Paced at

@@ -3,8 +3,8 @@ at once for 90 s (their hand-coded teachers on while balls are put down), then b
 the learned seeking over the learned gait reaches the pink ball in at least 2 of 3 episodes."""
 from collections import Counter
 
-from services.demo.hierarchy import TwoLevelStage, seek_alone, start_hierarchy, teach_both
-from tests.harness import free_port
+from rigs.harness import free_port
+from rigs.live.hierarchy import TwoLevelStage, seek_alone, start_hierarchy, teach_both
 
 TEACH_S = 90.0
 

@@ -1,17 +1,17 @@
 """Teachers on other machines, for real (issue 13): network namespaces stand for the robot host
 (router, Aibo, handler), the brain host (learner, arbitrator) and two teacher hosts, on one switch,
-every link mutual TLS with access control (services/experiments/hosts.py). Real processes, real
+every link mutual TLS with access control (rigs/hosts.py). Real processes, real
 Zenoh, real PyBullet; links cut and restored as a machine walks out of range and back.
 Needs root and iproute2 (CI runs as root); elsewhere these tests say why they skip."""
 import json
 
 import pytest
 
-from services.demo.mirroring import student_error
-from services.experiments.hosts import (BRAIN_LINK, LOSSY_DEADLINE_MS, ROBOT, Hosts, Link, brain_partition,
+from rigs.live.mirroring import student_error
+from rigs.hosts import (BRAIN_LINK, LOSSY_DEADLINE_MS, ROBOT, Hosts, Link, brain_partition,
                                         loop_window, teach_until_learned, teacher_partition)
+from rigs.netlab.lab import available
 from services.experiments.mirroring import ERROR_BOUND
-from services.netlab.lab import available
 
 pytestmark = pytest.mark.skipif(bool(available()), reason=available() or "")
 

@@ -1,8 +1,8 @@
 """Hot-swap learners during a 200 Hz run: no tick unanswered, no training pair lost (counted)."""
 import json
 
+from rigs.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port
 from services.waiting import poll
-from tests.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port
 from tests.test_supervisor import ps, wait
 
 TICKS = 6000  # 30 s at 200 Hz

@@ -6,8 +6,8 @@ import time
 import numpy as np
 
 from bus_schema import Input, encode
+from rigs.harness import Probe, dogged, stop
 from services.recording.reader import is_finished, iter_samples, run_files
-from tests.harness import Probe, dogged, stop
 
 FLOOD, FLOOD_BYTES = 300, 256 * 1024
 

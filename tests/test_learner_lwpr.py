@@ -4,10 +4,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rigs.lwpr_draws import cross_case, final_nmse
+from rigs.tasks import cross_training
 from services.learners import make_learner
 from services.learners.kernel_cache import drop_stale_numba_cache
-from benchmarks.lib.lwpr_draws import cross_case, final_nmse
-from benchmarks.lib.tasks import cross_training
 
 
 def test_interval_is_finite_on_data_and_infinite_without_support():
@@ -66,7 +66,7 @@ def test_norm_in_makes_scaled_inputs_equivalent():
 def test_long_stream_stays_stable():
     """Regression: rounding once cost a narrow field's exact fit its positive definite
     inverse after ~17,000 samples of cross among irrelevant inputs (nMSE 4 to 10^6)."""
-    from benchmarks.lib.tasks import cross, cross_embedded, nmse
+    from rigs.tasks import cross, cross_embedded, nmse
 
     xs, ys = cross_embedded(40_000, seed=2)
     model = make_learner("lwpr", 10, 1)

@@ -1,8 +1,8 @@
 """SOGP specifics beyond the shared conformance suite."""
 import numpy as np
 
+from rigs.tasks import cross, nmse
 from services.learners import make_learner
-from benchmarks.lib.tasks import cross, nmse
 
 
 def test_long_stream_stays_stable():

@@ -2,7 +2,7 @@
 import numpy as np
 
 from services.learners import make_learner
-from benchmarks.lib.tasks import (
+from rigs.tasks import (
     CROSS_LWPR_PARAMS, cross_grid, cross_training, mirror_samples, nmse, worst_error,
 )
 

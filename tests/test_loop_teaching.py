@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bus_schema import Command, Input, decode
-from tests.harness import REPO, Probe, dogged, dogged_ok, stop
+from rigs.harness import REPO, Probe, dogged, dogged_ok, stop
 
 
 def sine_teacher(x):  # services.teachers.functions.SineTeacher with its defaults, dims=2

@@ -4,8 +4,8 @@ import msgpack
 import numpy as np
 
 from bus_schema import Input, TeachSwitch, TrainingPair, encode
+from rigs.harness import Probe, dogged, stop
 from services.waiting import poll
-from tests.harness import Probe, dogged, stop
 
 
 def bad_payloads(good: bytes) -> list[bytes]:

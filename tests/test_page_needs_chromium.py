@@ -3,8 +3,8 @@ they run."""
 import subprocess
 import sys
 
-from services.ui.headless import missing_chromium
-from tests.harness import REPO
+from rigs.harness import REPO
+from rigs.headless import missing_chromium
 
 
 def test_no_chromium_says_which_apt_command_installs_it(tmp_path):

@@ -5,9 +5,9 @@ import json
 import numpy as np
 
 from bus_schema import Input, decode, encode
+from rigs.harness import Probe, dogged, stop, wait_until
 from services.platforms.point import PointPlatform
 from services.recording.writer import RunWriter
-from tests.harness import Probe, dogged, stop, wait_until
 
 TICKS = 240  # 8 s at 30 Hz, played at 4x
 

@@ -2,9 +2,9 @@ from pathlib import Path
 
 import pytest
 
+from rigs.harness import REPO
 from services.own_identities import identities_dir
 from services.supervisor.profile import ProfileError, load_profile
-from tests.harness import REPO
 
 
 def write(tmp_path, text):

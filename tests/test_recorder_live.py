@@ -13,10 +13,10 @@ from mcap.reader import make_reader
 
 from bus_schema import SchemaError, decode
 from bus_schema.catalog import payload_of
+from rigs.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port, stop
 from services.recording.reader import is_finished, iter_samples, run_files
-from services.recording.replay import replay, schedule
 from services.recording.runs import load_run
-from tests.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port, stop
+from services.replay.replay import replay, schedule
 from tests.test_supervisor import ps, wait
 
 PROFILE = """

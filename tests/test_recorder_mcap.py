@@ -10,10 +10,10 @@ from mcap.well_known import MessageEncoding
 from mcap.writer import Writer
 
 from bus_schema import Input, encode
+from rigs.harness import REPO
 from services.boxes import recorder as recorder_box
 from services.recording import reader, writer
 from services.recording.writer import MCAP_NEEDED, MCAP_USES, McapTooOld, RunWriter, check_mcap
-from tests.harness import REPO
 
 
 def test_pyproject_asks_for_the_mcap_the_recorder_needs():

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from bus_schema import Command, Input, Proposal, TrainingPair, encode
+from rigs.harness import REPO
 from services.platforms.point import PointPlatform
-from services.recording.replay import replay, schedule
 from services.recording.runs import load_run
 from services.recording.writer import RunWriter
+from services.replay.replay import replay, schedule
 from services.teachers import make_teacher
-from tests.harness import REPO
 
 TICKS, TAUGHT = 600, 300  # 20 s at 30 Hz, the first half taught
 

@@ -10,10 +10,10 @@ import pytest
 from bus_schema import Command, Input, Proposal, TrainingPair, encode
 from services.learners import make_learner
 from services.platforms.point import PointPlatform
-from services.platforms.recorded import RecordedPlatform
-from services.recording.replay import replay, schedule
+from services.recording.platform import RecordedPlatform
 from services.recording.runs import load_run
 from services.recording.writer import RunWriter
+from services.replay.replay import replay, schedule
 from services.teachers import make_teacher
 
 STRETCHES = (240, 180)  # ticks before the restart, and after it

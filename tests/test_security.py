@@ -9,10 +9,10 @@ import time
 import pytest
 import zenoh
 
+from rigs.harness import dogged, free_port, stop, wait_until
 from services.certificates import make_certs
 from services.refusals import Refusals
 from services.security import access_control, identity
-from tests.harness import dogged, free_port, stop, wait_until
 
 # router.mallet: a router's certificate, made before the router started, that is not the router's own
 IDENTITIES = ["router.router", "platform.aibo", "arbitrator.arbitrator", "learner.learner", "teacher.alice",

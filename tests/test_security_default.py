@@ -11,10 +11,10 @@ import sys
 import pytest
 import zenoh
 
+from rigs.harness import REPO, dogged, free_port, wait_until
 from services.bus.config import zenoh_config
 from services.certificates import make_certs
 from services.own_identities import home, identities_dir, person
-from tests.harness import REPO, dogged, free_port, wait_until
 from tests.test_supervisor import PROFILE, ps
 
 NOBODY = 65534  # Debian's nobody: another user of this machine, with no home

@@ -11,8 +11,8 @@ import pytest
 import zenoh
 
 import services.security
+from rigs.harness import REPO
 from services.permissions import PARTS, Part
-from tests.harness import REPO
 from tests.test_security import secured_router, session_config
 
 ROLES = [role for role in PARTS if role != "router"]

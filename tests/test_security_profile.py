@@ -18,13 +18,13 @@ import zenoh
 from websockets.asyncio.client import connect
 
 from bus_schema import Applied, Command, Input, TrainingPair, decode, encode
+from rigs.harness import REPO, dogged, free_port, wait_until
 from services.bus.config import zenoh_config
 from services.certificates import make_certs
 from services.own_identities import page_address
 from services.security import is_loopback
 from services.supervisor.profile import ProfileError, load_profile
 from services.supervisor.supervisor import Supervisor
-from tests.harness import REPO, dogged, free_port, wait_until
 from tests.test_supervisor import PROFILE
 
 # the supervisor test's profile (platform, teacher, learner, arbitrator), with a [zenoh] table added

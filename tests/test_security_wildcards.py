@@ -8,7 +8,7 @@ import time
 import pytest
 import zenoh
 
-from tests.harness import wait_until
+from rigs.harness import wait_until
 from tests.test_security import robot_hears, secured_router, session_config
 
 BEYOND_A_TEACHER = ("dl/**", "dl/main/**", "**", "dl/*/*", "dl/main/*", "dl/main/command/**")

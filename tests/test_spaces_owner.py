@@ -10,10 +10,10 @@ import zenoh
 
 from bus_schema import InstanceKeys, PairBatch, SpacesMessage, TrainingPair, encode
 from bus_schema.spaces import Box, Spaces
+from rigs.harness import wait_until
 from services.boxes.common import fetch_spaces
 from services.bus.config import zenoh_config
 from services.pairlog import PairLog, PairLogError
-from tests.harness import wait_until
 
 
 def saved_log(path, n=5):

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, wait_until
+from rigs.harness import REPO, Probe, dogged, dogged_ok, free_port, wait_until
 
 PROFILE = """
 [profile]

@@ -6,8 +6,8 @@ import time
 import zenoh
 
 from bus_schema import ControlReply, Status, decode, encode, supervisor_key
+from rigs.harness import dogged, dogged_ok, free_port, wait_until
 from services.bus.config import zenoh_config
-from tests.harness import dogged, dogged_ok, free_port, wait_until
 from tests.test_supervisor import PROFILE, ps
 
 

@@ -8,8 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+from rigs.harness import REPO, Probe, dogged, dogged_ok, free_port, stop, wait_until
 from services.own_identities import secured_endpoint
-from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, stop, wait_until
 
 PROFILE = """
 [profile]

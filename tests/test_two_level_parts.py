@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bus_schema import ControlReply, Spaces
-from services.boxes.chain import Easing
+from services.chaining import Easing
 from services.boxes.perception import output_box
 from services.experiments.wiring import wired_learner
 from services.platforms.aibo.platform import JOINTS_BOX, LEGS_BOX, MOVE_BOX

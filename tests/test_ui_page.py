@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from bus_schema import Proposal, TrainingPair, decode
-from services.demo.page import start_ballseek_with_page, teach_click_to_bus
+from rigs.harness import Probe, free_port, needs_chromium, wait_until
+from rigs.headless import open_page
+from rigs.live.page import start_ballseek_with_page, teach_click_to_bus
 from services.own_identities import page_address
-from services.ui.headless import open_page
-from tests.harness import Probe, free_port, needs_chromium, wait_until
 
 pytestmark = needs_chromium
 UNSURE_BELOW = 0.25  # deploy/ballseek.toml's arbitrator's (its default): below, the student asks

@@ -10,11 +10,11 @@ import pytest
 from websockets.asyncio.client import connect
 from websockets.exceptions import InvalidMessage, InvalidStatus
 
-from services.ui.protocol import BadMessage, parse
+from rigs.harness import free_port
 from services.certificates import make_certs
+from services.ui.protocol import BadMessage, parse
 from services.ui.server import UiServer
 from services.ui.tls import TlsError, fingerprint, server_tls
-from tests.harness import free_port
 
 
 def test_well_formed_messages_are_accepted():

@@ -5,13 +5,13 @@ import time
 from collections import Counter
 
 from bus_schema import SpacesMessage, Spaces, TrainingPair, decode
+from rigs.harness import free_port, needs_chromium
+from rigs.headless import open_page
+from rigs.live.page import KeyboardPerson, PageStage, start_ballseek_with_page
 from services.bus.queries import ask_owner
 from services.demo.live import decoded
-from services.demo.page import KeyboardPerson, PageStage, start_ballseek_with_page
 from services.experiments import ballseek_protocol as protocol
 from services.own_identities import page_address
-from services.ui.headless import open_page
-from tests.harness import free_port, needs_chromium
 
 pytestmark = needs_chromium
 

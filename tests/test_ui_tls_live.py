@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from tests.harness import REPO, dogged, free_port, stop, wait_until
+from rigs.harness import REPO, dogged, free_port, stop, wait_until
 from tests.test_ui_protocol import exchange, served_fingerprint, tls_client
 
 

@@ -2,10 +2,11 @@
 two joints onto the head's two joints, on the mirroring profile as real processes, switched on and
 off as a person would; the wired learner must then do it alone, inside the output space."""
 from bus_schema.spaces import Spaces
-from services.demo.mirroring import RATE, start_mirroring, student_error
+from rigs.harness import free_port
+from rigs.live.fits import wait_caught_up
+from rigs.live.mirroring import RATE, start_mirroring, student_error
 from services.platforms.aibo.platform import JOINTS_BOX
 from services.teachers import make_teacher
-from tests.harness import free_port
 
 MAP = {"seed": 3, "inputs": [16, 17], "outputs": [12, 13], "span": 1.3}
 
@@ -17,7 +18,7 @@ def test_a_random_head_map_taught_for_30_s_is_done_alone(tmp_path):
         run.teach(True)
         run.run_ticks(int(30 * RATE))
         run.teach(False)
-        waited = run.wait_caught_up()  # the fits on their own thread: on 2 busy cores they may lag
+        waited = wait_caught_up(run)  # the fits on their own thread: on 2 busy cores they may lag
         off = run.tick()
         run.run_ticks(int(15 * RATE))
         error, n = student_error(run, off + 3, teacher=make_teacher("random-map", Spaces(JOINTS_BOX, JOINTS_BOX),

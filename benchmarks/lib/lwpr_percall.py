@@ -15,8 +15,8 @@ import numba as nb
 import numpy as np
 
 from benchmarks.lib import lwpr_reference
-from benchmarks.lib.lwpr_draws import cross_case, mirror_case
-from benchmarks.lib.tasks import CROSS_LWPR_PARAMS
+from rigs.lwpr_draws import cross_case, mirror_case
+from rigs.tasks import CROSS_LWPR_PARAMS
 from services.learners import lwpr as lwpr_module
 from services.learners import make_learner
 

@@ -1,4 +1,4 @@
-"""The reference LWPR library on the same draws as ours (benchmarks/lib/lwpr_draws.py).
+"""The reference LWPR library on the same draws as ours (rigs/lwpr_draws.py).
 
 The library (Klanke, Vijayakumar & Schaal, LGPL; github.com/ipab-slmc/lwpr) is not part of dogged and
 not installed by it: `build(source)` compiles benchmarks/reference/lwpr_drive.c against a checkout
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.lib.lwpr_draws import Case, cross_case, irrelevant_case, mirror_case, samples_until_good
-from benchmarks.lib.tasks import nmse, worst_error
+from rigs.lwpr_draws import Case, cross_case, irrelevant_case, mirror_case, samples_until_good
+from rigs.tasks import nmse, worst_error
 from services.learners.lwpr import default_init_d
 
 DRIVER = Path(__file__).resolve().parents[1] / "reference" / "lwpr_drive.c"

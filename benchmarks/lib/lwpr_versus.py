@@ -9,8 +9,8 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks.lib import lwpr_reference
-from benchmarks.lib.lwpr_draws import cross_case, final_nmse, irrelevant_case, mirror_case, mirror_samples_until_good
-from benchmarks.lib.tasks import CROSS_LWPR_PARAMS
+from rigs.lwpr_draws import cross_case, final_nmse, irrelevant_case, mirror_case, mirror_samples_until_good
+from rigs.tasks import CROSS_LWPR_PARAMS
 
 # protocol: what it measures (every figure: lower is better)
 PROTOCOLS = {

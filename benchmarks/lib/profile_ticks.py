@@ -20,10 +20,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.lib.hops import HopObserver, TickSeen, hop_medians_us
+from rigs.harness import Probe, free_port
 from services.demo.live import BusRecorder, LiveRun, when_ready
-from services.experiments.wiring import DEPLOY
+from services.profiles import profile_path
 from services.supervisor.profile import Profile, ServiceSpec, load_profile
-from tests.harness import Probe, free_port
 
 PROFILES = ("mirroring", "ballseek", "hierarchy", "gym")
 # what the person switches on to teach: (instance, teacher; "" is every teacher of the instance). Mirroring's
@@ -70,7 +70,7 @@ def watch(name: str, work: Path, seconds: dict[str, float], security: str = "") 
     run_dir = work / (f"{name}-{security}" if security else name)
     run_dir.mkdir(parents=True)
     path = run_dir / f"{name}.toml"
-    shutil.copy(DEPLOY / f"{name}.toml", path)
+    shutil.copy(profile_path(name), path)
     if security:
         text = path.read_text()
         if "\n[zenoh]\n" not in text or "security" in text:
@@ -174,7 +174,7 @@ def measure(work: Path, quick: bool, floor_rtt_ms: dict[float, float]) -> tuple[
 
 def rates() -> list[float]:
     """Each profile's tick rate, for the floor measured at the same pace."""
-    return sorted({platform_of(load_profile(DEPLOY / f"{name}.toml")).options.rate for name in PROFILES})
+    return sorted({platform_of(load_profile(profile_path(name))).options.rate for name in PROFILES})
 
 
 def print_table(rows: list) -> None:

@@ -25,12 +25,13 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import Box, Command, InstanceKeys, Input, Spaces, SpacesMessage, encode
+from bus_schema import Box, Command, InstanceKeys, Input, SpacesMessage, encode
 from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.lifecycle import StopFlag, setup_logging
 from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.chaining import Easing, lower_spaces
 
 
 class SpacesAt:
@@ -40,18 +41,6 @@ class SpacesAt:
         self.spaces = key
 
 
-class Easing:
-    """First-order easing towards the latest target over `seconds` (0: none, the target as it is)."""
-
-    def __init__(self, start: np.ndarray, seconds: float):
-        self.value, self.seconds = np.array(start, dtype=np.float64), seconds
-
-    def step(self, target: np.ndarray, dt: float) -> np.ndarray:
-        blend = 1.0 - np.exp(-max(dt, 0.0) / self.seconds) if self.seconds > 0 else 1.0
-        self.value = self.value + blend * (np.asarray(target, dtype=np.float64) - self.value)
-        return self.value
-
-
 def clip_counted(box: Box, values: np.ndarray, counts: collections.Counter, name: str) -> np.ndarray:
     """`values` clipped to `box`, counted under `name` when that changed them: the upper's arbitrator
     only sends commands in its output space, so anything outside was forged or broken, and the lower
@@ -59,14 +48,6 @@ def clip_counted(box: Box, values: np.ndarray, counts: collections.Counter, name
     clipped = box.clip(values)
     counts[name] += bool(np.any(clipped != values))
     return clipped
-
-
-def lower_spaces(upper: Spaces, consumer: Spaces, extra: Spaces | None) -> Spaces:
-    box = upper.output
-    if extra is not None:
-        box = Box(box.low + extra.input.low, box.high + extra.input.high, box.names + extra.input.names,
-                  box.units + extra.input.units)
-    return Spaces(box, consumer.output, {"chained_from": "upper instance's output"})
 
 
 def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces: str, extra: str | None,

@@ -1,7 +1,7 @@
 """A live run: a profile brought up by the supervisor, watched and steered over the bus the way
 a person (or a scripted user) would: teachers on and off, arena resets, everything recorded.
 
-Used by `dogged demo` and by the integration tests of the paper's experiments.
+Used by `dogged demo`, and by the tests' and benchmarks' live runs of the other experiments (rigs/live).
 """
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ from pathlib import Path
 
 import zenoh
 
-from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, RobotKeys, RobotState, Status,
-                        TeachSwitch, decode, decoded, encode)
+from bus_schema import (ArenaReset, Command, Input, InstanceKeys, Proposal, RobotKeys, RobotState, TeachSwitch,
+                        decode, decoded, encode)
 from services.bus.config import zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
-from services.own_identities import wait_announced
+from services.supervisor.commands import wait_announced
 from services.waiting import poll
 
 REPO = Path(__file__).resolve().parents[2]
@@ -89,17 +89,6 @@ class BusRecorder:
             if time.monotonic() > end:
                 raise TimeoutError(f"the loop stalled at tick {self.tick()} (wanted {target})")
             time.sleep(0.01)
-
-    def wait_caught_up(self, learner: str = "learner", timeout: float = 120.0) -> float:
-        """Wait until the learner's fits (on their own thread, served live) have caught up with everything
-        taught: its status says no upkeep under way. Returns the seconds waited."""
-        key = self.keys.status("learner", learner)
-        if key not in self.recorded:
-            self._held.append(self.record(key))
-        since = time.time()
-        if not poll(lambda: caught_up(self.recorded[key], since), timeout, 0.1):
-            raise TimeoutError(f"the learner {learner}'s fits still under way after {timeout:.0f} s")
-        return time.time() - since
 
     # --- reading the record -----------------------------------------------------------------
     # (what does not decode is no message: a stranger may have put anything on these keys)
@@ -174,12 +163,3 @@ def when_ready(run: LiveRun) -> LiveRun:
     except BaseException:
         run.close()
         raise
-
-
-def caught_up(statuses: list, since: float) -> bool:
-    """Whether the newest learner status in `statuses` ((key, bytes, arrival) as recorded), if it arrived over
-    half a second after `since` (so it was composed after), says no fit is under way."""
-    if not statuses or statuses[-1][2] < since + 0.5:
-        return False
-    status = decoded(Status, statuses[-1][0], statuses[-1][1])
-    return status is not None and status.counters.get("upkeep_under_way", 1) == 0

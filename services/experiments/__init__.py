@@ -9,6 +9,6 @@ and learners, TeacherFirst), in simulated time as fast as the machine steps it.
     mirroring.py          section V.A: one teacher, and two partial teachers in turn
     ballseek.py           section V.B: the ball world (camera, blobs, walking)
     ballseek_protocol.py  section V.B: teaching, student-only episodes, the orange ball
-No bus: `benchmarks/experiments.py` prints the figures; `services/demo/` runs the same
-protocols as processes over Zenoh (the headline demo, the live tests).
+No bus: `benchmarks/experiments.py` prints the figures; `services/demo/` runs ball seeking as
+processes over Zenoh (the headline demo), rigs/live the others (the live tests and benchmarks).
 """

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bus_schema import Spaces
-from services.boxes.chain import Easing
+from services.chaining import Easing
 from services.experiments import ballseek_protocol as protocol
 from services.experiments.ballseek import BallWorld
 from services.experiments.ballseek_protocol import WorldStage
@@ -23,7 +23,7 @@ from services.learners import make_learner
 from services.platforms.aibo.platform import MOVE_BOX, AiboPlatform
 from services.teachers.trot import TrotTeacher
 
-EPISODE_SECONDS = 20.0  # one episode with the ball, in process and live (services/demo/hierarchy.py)
+EPISODE_SECONDS = 20.0  # one episode with the ball, in process and live (rigs/live/hierarchy.py)
 
 
 class LegsUnderMovement:

@@ -1,7 +1,8 @@
 """The walk level on the physics, in one process: a handler asks for a variety of movements while
 the hand-coded trot (the `trot` teacher) teaches a learner the 12 leg targets from (forward, turn,
 gait phase); then the learned gait walks alone. The spaces are the ones the live chain builds
-(services/boxes/chain.py), so what is taught here is what deploy/hierarchy.toml teaches.
+(services/chaining.py, as services/boxes/chain.py does), so what is taught here is what
+deploy/hierarchy.toml teaches.
 """
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bus_schema import Spaces
-from services.boxes.chain import Easing, lower_spaces
+from services.chaining import Easing, lower_spaces
 from services.learners import DEFAULT_LEARNER, Learner, make_learner
 from services.platforms.aibo.platform import LEGS_BOX, MOVE_BOX, PHASE_BOX, AiboPlatform
 from services.teachers.trot import TrotTeacher

@@ -2,18 +2,15 @@
 system as a user starts it, and one place says which learner and which settings."""
 from __future__ import annotations
 
-from pathlib import Path
-
 from services.params import parse_params
+from services.profiles import profile_path
 from services.supervisor.profile import load_profile
-
-DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
 
 
 def wired_learner(profile: str, instance: str | None = None) -> tuple[str, dict]:
     """(learner name, hyper-parameters) of the learner service in deploy/<profile>.toml (of `instance`,
-    where the profile runs several)."""
-    services = load_profile(DEPLOY / f"{profile}.toml").services
+    where the profile runs several), as the package carries it (services.profiles)."""
+    services = load_profile(profile_path(profile)).services
     spec = next((s for s in services if s.box == "learner" and instance in (None, s.instance)), None)
     if spec is None:
         raise ValueError(f"deploy/{profile}.toml starts no learner" + (f" for instance {instance}" if instance else ""))

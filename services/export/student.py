@@ -14,8 +14,8 @@ from services.arbitration.algorithm2 import learn_pair
 from services.export.ticks import ExportError
 from services.learners import LEARNERS, make_learner, save_student
 from services.recording.reader import iter_samples
-from services.recording.replay import learner_from_spec
 from services.recording.runs import RecordedRun
+from services.replay.replay import learner_from_spec
 
 
 def live_learner(run: RecordedRun, live: str | None) -> str:

@@ -38,6 +38,23 @@ def make_learner(name: str, n_in: int, n_out: int, seed: int = 0, **hyper_parame
     return cls(n_in, n_out, seed=seed, **hyper_parameters)
 
 
+def parse_learner_spec(text: str) -> tuple[str, list[str]]:
+    """A learner spec as `dogged swap`, `dogged replay` and `dogged export` take it: 'sogp' or
+    'sogp:capacity=200,noise=0.01' -> ('sogp', ['--param', 'capacity=200', ...]), the learner box's flags;
+    a ValueError for a malformed spec or a learner not registered."""
+    name, _, rest = text.partition(":")
+    params = []
+    for item in filter(None, rest.split(",")):
+        if "=" not in item:
+            raise ValueError(f"learner spec {text!r}: {item!r} is not name=value")
+        params += ["--param", item]
+    if not name:
+        raise ValueError("learner spec is empty; expected e.g. 'sogp' or 'lwpr:init_d=25'")
+    if name not in LEARNERS:  # refused at once, not after a learner that cannot start has timed out
+        raise ValueError(f"no learner {name!r}; learners: {', '.join(sorted(LEARNERS))}")
+    return name, params
+
+
 def compile_kernels(model) -> None:
     """Run a throw-away copy once, so compiled kernels are built before this learner says it is ready."""
     scratch = model.clone()

@@ -6,7 +6,7 @@ import importlib
 PLATFORMS: dict[str, str] = {
     "point": "services.platforms.point:PointPlatform",
     "aibo": "services.platforms.aibo.platform:AiboPlatform",
-    "recorded": "services.platforms.recorded:RecordedPlatform",  # a recorded run played back (`dogged play`)
+    "recorded": "services.recording.platform:RecordedPlatform",  # a recorded run played back (`dogged play`)
     "gym": "services.platforms.gym:GymPlatform",  # any Gymnasium environment with a Box observation (env=...)
 }
 

@@ -17,7 +17,9 @@ from bus_schema import (ArenaReset, Command, ControlReply, InstanceKeys, RobotKe
                         TeachSwitch, decode, decoded, encode, supervisor_key, supervisor_token)
 from services.bus.config import DEFAULT_ROUTER, zenoh_config
 from services.bus.publishers import lossless_publisher, wait_matching
+from services.bus.control import ask_supervisor, running_profile
 from services.bus.queries import ask_owner
+from services.own_identities import running_at
 from services.supervisor.profile import ProfileError, ensure_security, load_profile
 from services.waiting import poll
 
@@ -42,6 +44,22 @@ def up(profile_file: str, router: str | None, echo: bool, insecure: bool = False
         return 2
     print(profile.where_things_go(), flush=True)
     return Supervisor(profile, echo).run()
+
+
+def wait_announced(profile_file: Path, router: str | None, supervisor, timeout: float = 60.0) -> None:
+    """Once `dogged up profile_file [--router router]` (the process `supervisor`) has said where its router
+    runs, if the profile is secured by this user's own identities: a session opened before would not know
+    to speak TLS. RuntimeError if the supervisor exits first (it refused the profile, say), TimeoutError."""
+    profile = load_profile(profile_file, router, check_security=False)
+    if not profile.own_security:
+        return
+
+    def announced() -> bool:
+        if supervisor.poll() is not None:
+            raise RuntimeError(f"`dogged up {profile_file}` exited with {supervisor.returncode} before its router ran")
+        return running_at(profile.router) is not None
+    if not poll(announced, timeout):
+        raise TimeoutError(f"`dogged up {profile_file}` did not announce its router within {timeout:.0f} s")
 
 
 def certs(directory: str, profile_files: list[str] | None, identities: list[str], ca: str | None = None) -> int:
@@ -95,29 +113,6 @@ def _session(args):
         reason = str(err).split(" at /")[0]  # (the rest names zenoh's source file)
         raise SystemExit(f"dogged: cannot reach the router at {endpoint} within {ROUTER_WAIT_S:.0f} s "
                          f"({reason}){secured}") from None
-
-
-def running_profile(session, several_hint: str = "") -> tuple[str | None, str]:
-    """The one profile whose supervisor runs on this bus: (name, "") or (None, why not; with several,
-    followed by `several_hint`)."""
-    names = sorted({str(r.ok.key_expr).split("/")[-1]
-                    for r in session.liveliness().get(supervisor_token("*"), timeout=2.0) if r.ok is not None})
-    if len(names) == 1:
-        return names[0], ""
-    return None, "no running profile found" if not names else f"several profiles run ({', '.join(names)}){several_hint}"
-
-
-def ask_supervisor(session, profile: str, verb: str, parameters: str = "",
-                   timeout: float = 5.0) -> tuple[ControlReply | None, str]:
-    """A verb asked of `profile`'s supervisor: (its reply, "") or (None, what went wrong)."""
-    key = supervisor_key(profile, verb)
-    payload, problem = ask_owner(session, f"{key}?{parameters}" if parameters else key, timeout)
-    if payload is None:
-        return None, f"the supervisor of {profile} did not answer {verb}: {problem}"
-    try:
-        return decode(ControlReply, payload, key), ""
-    except SchemaError as err:
-        return None, f"bad reply: {err}"
 
 
 def _profile(session, args) -> str | None:

@@ -15,24 +15,9 @@ from pathlib import Path
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, encode
 from services.boxes import learner as learner_box
 from services.bus.publishers import lossless_publisher, wait_matching
+from services.learners import parse_learner_spec
 
 log = logging.getLogger("dogged.supervisor")
-
-
-def parse_learner_spec(text: str) -> tuple[str, list[str]]:
-    """'sogp' or 'sogp:capacity=200,noise=0.01' -> ('sogp', ['--param', 'capacity=200', ...])."""
-    name, _, rest = text.partition(":")
-    params = []
-    for item in filter(None, rest.split(",")):
-        if "=" not in item:
-            raise ValueError(f"learner spec {text!r}: {item!r} is not name=value")
-        params += ["--param", item]
-    if not name:
-        raise ValueError("learner spec is empty; expected e.g. 'sogp' or 'lwpr:init_d=25'")
-    from services.learners import LEARNERS
-    if name not in LEARNERS:  # refused at once, not after a learner that cannot start has timed out
-        raise ValueError(f"no learner {name!r}; learners: {', '.join(sorted(LEARNERS))}")
-    return name, params
 
 
 LEARNER_DESTS = ("learner", "param", "warm_from")  # what defines a learner, not where it runs

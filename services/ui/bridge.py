@@ -25,7 +25,7 @@ from bus_schema import (ArenaReset, Command, Episode, Frame, InstanceKeys, Input
 from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
 from services.bus.inbox import Inbox, Rejects, decode_or_reject
 from services.bus.publishers import lossless_publisher
-from services.supervisor.commands import ask_supervisor, running_profile
+from services.bus.control import ask_supervisor, running_profile
 from services.ui.teleop import Teleop
 
 VIEW_PERIOD_S = 0.1  # the page's view of the system, ten times a second

@@ -1,5 +1,5 @@
 """Mirroring spread over four machines, as the mission draws it (issue 13): hosts are network
-namespaces on one switch (services/netlab/lab.py), every link mutual TLS with access control.
+namespaces on one switch (rigs/netlab/lab.py), every link mutual TLS with access control.
 
 - robot: the router, the Aibo at 30 Hz in real time, the handler (`dogged up robot.toml`);
 - brain: the learner and the arbitrator (`dogged up brain.toml --join <robot's router>`), peers of
@@ -10,7 +10,7 @@ namespaces on one switch (services/netlab/lab.py), every link mutual TLS with ac
 
 This process watches from the switch (operator.lab): it records the loop and the arbitrator's
 status, which it publishes at once when it stops or starts waiting for someone. With `radio`, the
-robot's cable runs through services/netlab/air.py, which drops and delays frames.
+robot's cable runs through rigs/netlab/air.py, which drops and delays frames.
 """
 from __future__ import annotations
 
@@ -25,10 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema import Command, Input, Status
-from services.demo.live import REPO, BusRecorder, decoded
-from services.demo.mirroring import param_args
+from rigs.harness import REPO
+from rigs.live.mirroring import param_args
+from rigs.netlab.lab import Lab
+from services.demo.live import BusRecorder, decoded
 from services.experiments.wiring import wired_learner
-from services.netlab.lab import Lab
 from services.waiting import poll
 
 ROBOT, BRAIN = "robot", "brain"
@@ -324,7 +325,7 @@ def teach_until_learned(hosts: Hosts, step_s: float = 1.0, judge_s: float = 3.0,
                         bound: float = 0.05) -> Lesson:
     """Both teachers on for `step_s` at a time (switched from the lab), then the student alone for
     `judge_s`, judged on the head axes against the mirroring teacher, until its RMS is under `bound`."""
-    from services.demo.mirroring import student_error
+    from rigs.live.mirroring import student_error
     bus, rounds, taught = hosts.bus, [], 0.0
     while taught < max_taught_s:
         started = time.time()

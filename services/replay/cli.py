@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from services.params import parse_params
-from services.recording.compare import Figures, figures, plot, reference, table
-from services.recording.replay import Replayed, learner_from_spec, replay, schedule
 from services.recording.runs import RecordedRun, load_run
+from services.replay.compare import Figures, figures, plot, reference, table
+from services.replay.replay import Replayed, learner_from_spec, replay, schedule
 
 
 def live_rows(run: RecordedRun) -> list[Replayed]:
@@ -106,7 +106,7 @@ def play_main(argv: list[str]) -> int:
     parser.add_argument("--connect", default=None, help="router endpoint (default $DOGGED_CONNECT or the local one)")
     add_certificate_args(parser)
     args = parser.parse_args(argv)
-    from services.platforms.recorded import RecordedPlatform
+    from services.recording.platform import RecordedPlatform
     try:
         recorded = RecordedPlatform(args.run, args.instance, args.loop)
     except (OSError, ValueError) as err:

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema import Command, Input
+from rigs.harness import REPO
 from services.demo.ballseek import LiveStage
-from services.demo.live import REPO, LiveRun, decoded, when_ready
+from services.demo.live import LiveRun, decoded, when_ready
 from services.teachers import make_teacher
 from services.waiting import poll
 
@@ -22,7 +23,7 @@ def start_ballseek_with_page(run_dir: Path, endpoint: str, port: int) -> LiveRun
     text = PROFILE.read_text()
     for part in (PAGE_ADDRESS, STATE_DIR, "[profile]\n"):
         if part not in text:
-            raise ValueError(f"{PROFILE} no longer holds {part.strip()}: update services/demo/page.py")
+            raise ValueError(f"{PROFILE} no longer holds {part.strip()}: update rigs/live/page.py")
     text = (text.replace(PAGE_ADDRESS, f'"127.0.0.1:{port}"').replace(STATE_DIR, f'"{run_dir / "state"}"')
             .replace("[profile]\n", f'[profile]\nlog_dir = "{run_dir / "logs"}"\n', 1))
     run_dir.mkdir(parents=True, exist_ok=True)

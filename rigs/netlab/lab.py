@@ -9,7 +9,7 @@ Hosts get 10.<net>.0.<n>/24 on `eth0` (net: the first from 77 this machine route
 their own loopback. The switch is a bridge in a namespace of its own; a cut takes the host's port
 off the bridge (the cable stays plugged in and up), so nothing reaches either side and neither side
 is told, as when a machine walks out of range. The host named `radio` is cabled through
-services/netlab/air.py instead, in a namespace between it and the switch, so its link can drop and
+rigs/netlab/air.py instead, in a namespace between it and the switch, so its link can drop and
 delay frames. With `observer`, this process's own namespace is on the switch too, at
 10.<net>.0.254, to watch the hosts as one more machine would. Closing ends every process left in
 the lab's namespaces. Needs root and iproute2 (`ip`); `available()` says whether this machine can.
@@ -187,13 +187,13 @@ class Lab:
         for side in ("air-sw", "air-up"):
             _ip("link", "set", side, "promisc", "on", "up", ns=self.air_ns)
         self._attach(self.port(host))
-        # both ends that send into the air fill in their own checksums (services/netlab/offload.py)
+        # both ends that send into the air fill in their own checksums (rigs/netlab/offload.py)
         for ns, interface in ((self.ns(host), "eth0"), (self.switch, self.port(host))):
-            subprocess.run(["ip", "netns", "exec", ns, sys.executable, "-m", "services.netlab.offload", interface],
+            subprocess.run(["ip", "netns", "exec", ns, sys.executable, "-m", "rigs.netlab.offload", interface],
                            check=True, cwd=ROOT)
         self.control = self.dir / "air.control"
         self.control.write_text("0 0 0")
-        self.air = subprocess.Popen(["ip", "netns", "exec", self.air_ns, sys.executable, "-m", "services.netlab.air",
+        self.air = subprocess.Popen(["ip", "netns", "exec", self.air_ns, sys.executable, "-m", "rigs.netlab.air",
                                      "air-sw", "air-up", "--control", str(self.control)],
                                     stdout=subprocess.DEVNULL, stderr=open(self.dir / "air.log", "w"),
                                     cwd=ROOT)

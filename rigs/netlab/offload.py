@@ -1,9 +1,9 @@
 """Turn off an interface's checksum and segmentation offloads (what `ethtool -K dev tx off` does).
 
 A veth hands frames on with their TCP/UDP checksums left for the hardware to fill in; frames that
-services/netlab/air.py reads and sends on again would then arrive with bad checksums and be dropped.
+rigs/netlab/air.py reads and sends on again would then arrive with bad checksums and be dropped.
 With transmit checksumming off, the kernel computes them before the frame leaves (and segments
-large TCP sends itself). Run inside the interface's namespace: python -m services.netlab.offload eth0
+large TCP sends itself). Run inside the interface's namespace: python -m rigs.netlab.offload eth0
 """
 from __future__ import annotations
 

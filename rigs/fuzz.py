@@ -2,7 +2,7 @@
 teacher teaching (issue 12): every one must be refused and counted by whoever reads it, and nothing
 may exit, restart, stop learning or slow the loop.
 
-The deployment is the fault suite's (services/experiments/faults.py): the simulated Aibo mirroring at
+The deployment is the fault suite's (rigs/faults.py): the simulated Aibo mirroring at
 30 Hz under the supervisor. The fuzzer is one client session that knows only the bus schema. Each
 case names the key, the payload and the services that must count it as rejected; the suite compares
 every service's `rejected` counter before and after against those expectations, exactly.
@@ -24,10 +24,10 @@ import zenoh
 from bus_schema import (ArenaReset, Clock, Command, ControlReply, Handle, Input, Proposal, SelectLearner, Status,
                         TeachSwitch, TrainingPair, decode, encode)
 from bus_schema.keys import supervisor_key
+from rigs.faults import mirroring_profile
+from rigs.live.mirroring import student_error
 from services.bus.publishers import wait_matching
 from services.demo.live import LiveRun, decoded
-from services.demo.mirroring import student_error
-from services.experiments.faults import mirroring_profile
 
 N_IN = N_OUT = 18  # the mirroring deployment's spaces
 FAR_TICKS = (2 ** 63 - 1, 2 ** 62, 10 ** 15)

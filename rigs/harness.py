@@ -15,12 +15,13 @@ import pytest
 import zenoh
 
 from bus_schema import EVERY_STATUS, Status, decode
+from rigs.headless import missing_chromium
 from services import waiting
 from services.bus.config import zenoh_config
 from services.bus.publishers import wait_matching
-from services.own_identities import HOME_ENV, wait_announced
+from services.own_identities import HOME_ENV
+from services.supervisor.commands import wait_announced
 from services.supervisor.process import dump_stacks_then_kill
-from services.ui.headless import missing_chromium
 
 REPO = Path(__file__).resolve().parents[1]
 

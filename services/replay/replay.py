@@ -14,10 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.arbitration.algorithm2 import learn_pair
-from services.learners import compile_kernels, make_learner
+from services.learners import compile_kernels, make_learner, parse_learner_spec
 from services.params import parse_params
 from services.recording.runs import RecordedRun
-from services.supervisor.swap import parse_learner_spec
 
 
 @dataclass

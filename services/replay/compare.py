@@ -9,8 +9,8 @@ import numpy as np
 
 from services.experiments.evaluate import (error_over_time, half_range, moving_average, save_figure, teacher_outputs,
                                           teaching_bands)
-from services.recording.replay import Replayed
 from services.recording.runs import RecordedRun
+from services.replay.replay import Replayed
 
 SMOOTH_S = 1.0  # the error curve's trailing mean (and teaching it takes before "reached" can count)
 

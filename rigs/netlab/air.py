@@ -6,7 +6,7 @@ Ethernet frame arriving on either side (AF_PACKET) and sends it out of the other
 delay, or drops it. Each direction is impaired on its own, as netem on both ends would; a cut drops
 everything, silently, as a radio out of range does (the interfaces stay up).
 
-    python -m services.netlab.air A B --loss 0.05 --jitter-ms 20 [--delay-ms 0] [--control FILE]
+    python -m rigs.netlab.air A B --loss 0.05 --jitter-ms 20 [--delay-ms 0] [--control FILE]
 
 The control file, if given, is re-read when it changes: `loss jitter_ms delay_ms` (or `cut`).
 """

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rigs.tasks import cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse, worst_error
 from services.learners import make_learner
-from benchmarks.lib.tasks import cross, cross_embedded, cross_grid, cross_training, mirror_samples, nmse, worst_error
 
 MIRROR_THRESHOLD = 0.05  # rad, worst held-out error
 

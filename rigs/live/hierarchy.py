@@ -7,8 +7,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rigs.harness import REPO
 from services.demo.ballseek import LiveStage
-from services.demo.live import REPO, BusRecorder, LiveRun, when_ready
+from services.demo.live import BusRecorder, LiveRun, when_ready
 from services.experiments import ballseek_protocol as protocol
 from services.experiments.hierarchy import EPISODE_SECONDS
 
