@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from bus_schema import Clock, Command, Input, decode, encode
-from tests.harness import Probe, dogged, stop
+from rigs.harness import Probe, dogged, stop
 
 
 def test_the_aibo_says_the_rest_once_its_tick_is_answered(router, tmp_path):
@@ -31,9 +31,10 @@ def test_the_aibo_says_the_rest_once_its_tick_is_answered(router, tmp_path):
         token.undeclare()
         arrivals = [(decode(Input, raw, key).tick, at) for key, raw, at in inputs]
         clock_at = np.array([at for _, _, at in clocks])
-        # the first clock after each answered input: after our command, unless the answer came late
+        # the first clock after each input answered at once (within 4 ms of its arrival here, where the robot
+        # waits half its 33 ms period): after our command. A late answer, on a loaded machine, is not counted
         after = [bool(clock_at[clock_at > came][:1] > answered_at[tick]) for tick, came in arrivals[10:]
-                 if tick in answered_at and clock_at[clock_at > came].size]
+                 if tick in answered_at and answered_at[tick] - came < 0.004 and clock_at[clock_at > came].size]
         assert len(after) > 60, f"{len(after)} ticks answered"
         assert np.mean(after) > 0.8, f"a tick's clock came after its command in {np.mean(after):.0%} of {len(after)}"
         assert all(decode(Clock, raw, key).sim_time > 0 for key, raw, _ in clocks[-5:])

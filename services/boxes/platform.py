@@ -192,7 +192,7 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
                 loop.advance(dt, watchdog)
             if not (max_ticks and loop.tick >= max_ticks):
                 loop.publish_input()
-            after_tick_at = now + (period or watchdog) / 2
+            after_tick_at = time.monotonic() + (period or watchdog) / 2  # from the input, not the physics before it
             # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
             next_tick = max(next_tick + period, now) if period else now + watchdog
         wake = next_tick if after_tick_at is None else min(next_tick, after_tick_at)
