@@ -22,12 +22,12 @@ from services.learners import make_learner
 
 
 @nb.njit
-def _nothing8(a, b, c, d, e, f, g, h):
+def _nothing5(a, b, c, d, e):
     return 0
 
 
 @nb.njit
-def _nothing9(a, b, c, d, e, f, g, h, i):
+def _nothing6(a, b, c, d, e, f):
     return 0.0
 
 
@@ -54,9 +54,7 @@ def per_call(count: int = 3000) -> dict[str, float]:
     y, interval = np.empty(1), np.empty(1)
 
     def fresh():
-        model = type(warm).restore(snapshot)  # a snapshot keeps only the fields in use: room for new ones,
-        model._grow()  # or the kernel called bare would return 'grow first' on every call
-        return model
+        return type(warm).restore(snapshot)
 
     def learn_method(m):
         for x, t in zip(xs, ys):
@@ -66,7 +64,7 @@ def per_call(count: int = 3000) -> dict[str, float]:
         def run(m):
             taught = m._taught
             for x, t in zip(xs, ys):
-                function(m._rfs, m._nreg, m._n_rfs, m._hp, x, t, taught.low, taught.high)
+                function(m._model, x, t, taught.low, taught.high)
         return run
 
     def predict_method(m):
@@ -77,28 +75,27 @@ def per_call(count: int = 3000) -> dict[str, float]:
         def run(m):
             taught = m._taught
             for x in xs:
-                function(m._rfs, m._nreg, m._n_rfs, m._hp, x, y, interval, taught.floor, taught.ceiling)
+                function(m._model, x, y, interval, taught.floor, taught.ceiling)
         return run
 
     model = fresh()  # numba compiles the empty functions for these argument types here, off the clock
-    _nothing8(model._rfs, model._nreg, model._n_rfs, model._hp, xs[0], ys[0], model._taught.low, model._taught.high)
-    _nothing9(model._rfs, model._nreg, model._n_rfs, model._hp, xs[0], y, interval, model._taught.floor,
-              model._taught.ceiling)
+    _nothing5(model._model, xs[0], ys[0], model._taught.low, model._taught.high)
+    _nothing6(model._model, xs[0], y, interval, model._taught.floor, model._taught.ceiling)
     runs = {
         "learn_one_us": learn_method,
         "learn_kernel_call_us": learn_with(kernels.learn_one),
-        "learn_dispatch_us": learn_with(_nothing8),
+        "learn_dispatch_us": learn_with(_nothing5),
         "learn_many_row_us": lambda m: m.learn_many(xs, ys),
         "predict_one_us": predict_method,
         "predict_kernel_call_us": predict_with(kernels.predict_one),
-        "predict_dispatch_us": predict_with(_nothing9),
+        "predict_dispatch_us": predict_with(_nothing6),
         "predict_many_row_us": lambda m: m.predict_many(xs),
     }
     figures = {key: float("inf") for key in runs}
     for _ in range(7):  # the ways of calling take turns, so that a slower spell of the machine hits them all
         for key, work in runs.items():
             figures[key] = min(figures[key], _us_per_item(work, count, repeats=1, fresh=fresh))
-    figures["cross_rfs"] = int(warm._n_rfs[0])
+    figures["cross_rfs"] = warm.rfs_per_output[0]
     return figures
 
 
