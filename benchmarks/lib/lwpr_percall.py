@@ -22,13 +22,13 @@ from services.learners import make_learner
 
 
 @nb.njit
-def _nothing5(a, b, c, d, e):
+def _nothing8(a, b, c, d, e, f, g, h):
     return 0
 
 
 @nb.njit
-def _nothing6(a, b, c, d, e, f):
-    return 0.0
+def _nothing9(a, b, c, d, e, f, g, h, i):
+    return 0.0, False
 
 
 def _us_per_item(work, count: int, repeats: int = 5, fresh=None) -> float:
@@ -62,9 +62,9 @@ def per_call(count: int = 3000) -> dict[str, float]:
 
     def learn_with(function):
         def run(m):
-            taught = m._taught
+            taught, shown = m._taught, m._shown
             for x, t in zip(xs, ys):
-                function(m._model, x, t, taught.low, taught.high)
+                function(m._model, x, t, x, taught.low, taught.high, shown.low, shown.high)
         return run
 
     def predict_method(m):
@@ -73,22 +73,23 @@ def per_call(count: int = 3000) -> dict[str, float]:
 
     def predict_with(function):
         def run(m):
-            taught = m._taught
+            taught, shown = m._taught, m._shown
             for x in xs:
-                function(m._model, x, y, interval, taught.floor, taught.ceiling)
+                function(m._model, x, y, interval, taught.floor, taught.ceiling, x, shown.low, shown.high)
         return run
 
     model = fresh()  # numba compiles the empty functions for these argument types here, off the clock
-    _nothing5(model._model, xs[0], ys[0], model._taught.low, model._taught.high)
-    _nothing6(model._model, xs[0], y, interval, model._taught.floor, model._taught.ceiling)
+    taught, shown = model._taught, model._shown
+    _nothing8(model._model, xs[0], ys[0], xs[0], taught.low, taught.high, shown.low, shown.high)
+    _nothing9(model._model, xs[0], y, interval, taught.floor, taught.ceiling, xs[0], shown.low, shown.high)
     runs = {
         "learn_one_us": learn_method,
         "learn_kernel_call_us": learn_with(kernels.learn_one),
-        "learn_dispatch_us": learn_with(_nothing5),
+        "learn_dispatch_us": learn_with(_nothing8),
         "learn_many_row_us": lambda m: m.learn_many(xs, ys),
         "predict_one_us": predict_method,
         "predict_kernel_call_us": predict_with(kernels.predict_one),
-        "predict_dispatch_us": predict_with(_nothing6),
+        "predict_dispatch_us": predict_with(_nothing9),
         "predict_many_row_us": lambda m: m.predict_many(xs),
     }
     figures = {key: float("inf") for key in runs}

@@ -136,13 +136,15 @@ class LWPR(Learner):
         if self._input_scale is not None:
             with np.errstate(over="ignore"):  # an overflow is refused below, with its reason
                 x = x * self._input_scale
-        kernels, taught = _loaded_kernels or _kernels(), self._taught
-        status = kernels.learn_one(self._model, x, y, taught.low, taught.high)
+        kernels, taught, shown = _loaded_kernels or _kernels(), self._taught, self._shown
+        status = kernels.learn_one(self._model, x, y, raw, taught.low, taught.high, shown.low, shown.high)
         if status < 0:
             self._reject(status, x, y)
-        if status == 2:  # the kernel widened the taught range
+        if status & kernels.TAUGHT_WIDENED:  # the kernel widened the range in place
             taught.refresh()
-        self._note_shown(raw, y)
+        if status & kernels.SHOWN_WIDENED:
+            shown.refresh()
+        self._note_taught_mean(y)
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
@@ -178,15 +180,15 @@ class LWPR(Learner):
             as_vector(x, self.n_in, "inputs")
         if self._input_scale is not None:
             x = x * self._input_scale
-        kernels, taught = _loaded_kernels or _kernels(), self._taught
+        kernels, taught, shown = _loaded_kernels or _kernels(), self._taught, self._shown
         y, interval = np.empty(self.n_out), np.empty(self.n_out)
-        confidence = kernels.predict_one(self._model, x, y, interval, taught.floor, taught.ceiling)
+        confidence, beyond = kernels.predict_one(self._model, x, y, interval, taught.floor, taught.ceiling,
+                                                 raw, shown.low, shown.high)
         if confidence == -1.0:  # the kernel found a non-finite input
             as_vector(x, self.n_in, "inputs")
         if confidence == -2.0:  # an answer the model could not give
             return self._sane_one(y, 0.0, interval)
-        shown = self._shown
-        if (raw < shown.low).any() or (raw > shown.high).any():  # beyond what was shown: fade (base.FADE)
+        if beyond:  # beyond the inputs shown: fade (base.FADE)
             y = taught.bound(self._fade(raw[None, :], y[None, :])[0])
         # tuple.__new__ skips NamedTuple's Python-level __new__: 0.2 µs of a 2.5 µs call
         return _new_tuple(Prediction, (y, confidence, interval))
@@ -245,9 +247,9 @@ class LWPR(Learner):
         lwpr_snapshot.check_rows(rows, n_reg, counts, self.n_in, self.n_out)
         self._model = self._new_model()
         lwpr_snapshot.unpack(self._model, rows, n_reg, counts)
-        taught = self._taught  # learn_one's kernel widens its range in place
-        taught.low, taught.high = np.array(taught.low, dtype=np.float64), np.array(taught.high, dtype=np.float64)
-        taught.refresh()  # writeable floor and ceiling too: a read-only array would compile the kernel again
+        for ranges in (self._taught, self._shown):  # learn_one's kernel widens them in place
+            ranges.low, ranges.high = np.array(ranges.low, dtype=np.float64), np.array(ranges.high, dtype=np.float64)
+            ranges.refresh()  # writeable floor and ceiling too: a read-only array would compile the kernel again
 
 
 register("lwpr", LWPR)

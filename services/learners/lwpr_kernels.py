@@ -3,7 +3,8 @@
 Each output dimension has its own list of receptive fields (as in the reference library),
 so each output adapts its own distance metric to the inputs that matter for it.
 Status codes returned by the learning kernels: 0 done; -(i+1) input i is not finite;
--(n_in+k+1) target k is not finite. Nothing is changed for a rejected sample.
+-(n_in+k+1) target k is not finite (nothing is changed for a rejected sample); learn_one adds
+TAUGHT_WIDENED and SHOWN_WIDENED when it widened the taught outputs' or the shown inputs' range.
 Entry points release the GIL (nogil) so a service's other threads keep running; a model
 must still be used from one thread at a time.
 """
@@ -21,6 +22,8 @@ from .lwpr_receptive_field import (
     anneal_lambdas, cross_validated_errors, maybe_add_projection, update_exact_fit,
     update_means, update_projections,
 )
+
+TAUGHT_WIDENED, SHOWN_WIDENED = 1, 2
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
@@ -93,20 +96,40 @@ def check_sample(x, y):
     return 0
 
 
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def widen(values, low, high):
+    """Widen the range [low, high] in place to take in `values`; True when it had to."""
+    widened = False
+    for i in range(values.shape[0]):
+        if values[i] < low[i] or values[i] > high[i]:
+            widened = True
+            low[i], high[i] = min(low[i], values[i]), max(high[i], values[i])
+    return widened
+
+
+@nb.njit(cache=True, fastmath=FAST_MATH)
+def within(values, low, high):
+    for i in range(values.shape[0]):
+        if values[i] < low[i] or values[i] > high[i]:
+            return False
+    return True
+
+
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
-def learn_one(model, x, y, low, high):
-    """Learn (x, y); low and high, the taught range per output, widen to y in place (status 2
-    when they did, so the caller refreshes what it derives from them)."""
+def learn_one(model, x, y, raw, taught_low, taught_high, shown_low, shown_high):
+    """Learn (x, y), x the input as the model takes it (raw divided by norm_in). The learner's taught
+    range of the outputs widens to y in place, its shown range of the inputs to raw (the status says
+    which did, so the caller refreshes what it derives from them): numpy would cost more than the update."""
     status = check_sample(x, y)
     if status != 0:
         return status
     work = np.empty(7 * x.shape[0] + 2)
     for k in range(y.shape[0]):
         update_output(model, k, x, y[k], work)
-    for k in range(y.shape[0]):
-        if y[k] < low[k] or y[k] > high[k]:
-            status = 2
-            low[k], high[k] = min(low[k], y[k]), max(high[k], y[k])
+    if widen(y, taught_low, taught_high):
+        status += TAUGHT_WIDENED
+    if widen(raw, shown_low, shown_high):
+        status += SHOWN_WIDENED
     return status
 
 
@@ -251,14 +274,15 @@ def predict_many(model, xs):
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)
-def predict_one(model, x, y, intervals, floor, ceiling):
+def predict_one(model, x, y, intervals, floor, ceiling, raw, shown_low, shown_high):
     """Like predict_many for one input, filling the caller's y (held within floor and
     ceiling) and intervals: returning arrays from numba, or clipping with numpy, costs more
-    than the prediction. Returns the confidence; -1 for a non-finite input (then nothing is
-    computed), -2 when an answer is not finite."""
+    than the prediction. Returns the confidence (-1 for a non-finite input, then nothing is
+    computed; -2 when an answer is not finite) and whether raw lies beyond the inputs shown."""
+    beyond = not within(raw, shown_low, shown_high)
     for i in range(x.shape[0]):
         if not math.isfinite(x[i]):
-            return -1.0
+            return -1.0, beyond
     xres = np.empty(x.shape[0])
     conf = 1.0
     finite = True
@@ -267,7 +291,7 @@ def predict_one(model, x, y, intervals, floor, ceiling):
         finite = finite and math.isfinite(value)  # before clipping, which could hide a NaN
         y[k] = min(max(value, floor[k]), ceiling[k])
         conf = min(conf, w_max)
-    return calibrated(conf, model.w_gen) if finite else -2.0
+    return (calibrated(conf, model.w_gen) if finite else -2.0), beyond
 
 
 @nb.njit(cache=True)
