@@ -98,6 +98,15 @@ typeof_impl.register(LWPRModel)(lambda value, context: LWPR_MODEL)
 
 
 @nb.njit(cache=True)
+def copy_into(destination, source, at=0):
+    """destination's entries from `at` on = source's, both C-contiguous, read in row-major order. A plain
+    loop: numba's assignment of one 2-d array to another compiles for seconds at each use."""
+    flat_destination, flat_source = destination.reshape(destination.size), source.reshape(source.size)
+    for i in range(flat_source.shape[0]):
+        flat_destination[at + i] = flat_source[i]
+
+
+@nb.njit(cache=True)
 def blank_field(n):
     """A receptive field of n inputs holding zeros, with no projection."""
     rf = structref.new(RECEPTIVE_FIELD)

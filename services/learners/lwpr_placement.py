@@ -6,7 +6,7 @@ import math
 
 import numba as nb
 
-from .lwpr_model import FAST_MATH, RLS_PRIOR, blank_field
+from .lwpr_model import FAST_MATH, RLS_PRIOR, blank_field, copy_into
 from .novelty import EXPERIENCED_SDS  # a field's experience: mean +- this many sd per input
 
 
@@ -15,8 +15,8 @@ def new_field(model, x):
     """A receptive field centred on x with the model's initial metric and learning rates."""
     n = x.shape[0]
     rf = blank_field(n)
-    rf.centre[:] = x
-    rf.mean_x[:] = x
+    copy_into(rf.centre, x)
+    copy_into(rf.mean_x, x)
     rf.lam[:] = model.init_lambda
     rf.ss_s2[:] = model.init_s2
     rf.sum_w[:] = 1e-10
@@ -37,10 +37,10 @@ def new_field(model, x):
 @nb.njit(cache=True, fastmath=FAST_MATH)
 def inherit_metric(rf, nearest):
     """The nearest field's adapted metric and learning rates are the best guess for a new one."""
-    rf.M[:] = nearest.M
-    rf.D[:] = nearest.D
-    rf.alpha[:] = nearest.alpha
-    rf.meta_b[:] = nearest.meta_b
+    copy_into(rf.M, nearest.M)
+    copy_into(rf.D, nearest.D)
+    copy_into(rf.alpha, nearest.alpha)
+    copy_into(rf.meta_b, nearest.meta_b)
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)

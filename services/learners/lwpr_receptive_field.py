@@ -11,7 +11,7 @@ import math
 
 import numba as nb
 
-from .lwpr_model import FAST_MATH, RLS_PRIOR
+from .lwpr_model import FAST_MATH, RLS_PRIOR, copy_into
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
@@ -34,7 +34,7 @@ def cross_validated_errors(rf, xmz, ymz, e_cv, xres):
     """Errors of the RF's prediction with 1..n_reg projections, before this sample is learned."""
     u, p, beta = rf.U, rf.P, rf.beta
     n = xmz.shape[0]
-    xres[:] = xmz
+    copy_into(xres, xmz)
     yp = 0.0
     for r in range(rf.n_reg):
         s = 0.0
@@ -56,7 +56,7 @@ def update_projections(rf, xmz, ymz, w, e_cv, xres):
     lam_v, sum_w, n_data = rf.lam, rf.sum_w, rf.n_data
     sum_ecv2, s_last = rf.sum_e_cv2, rf.s_last
     n = xmz.shape[0]
-    xres[:] = xmz
+    copy_into(xres, xmz)
     yres = ymz
     lam0 = lam_v[0]
     for r in range(rf.n_reg):

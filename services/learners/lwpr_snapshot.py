@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .lwpr_model import blank_field
+from .lwpr_model import blank_field, copy_into
 
 N_SCALARS, N_VECTORS, N_MATRICES = 4, 13, 9
 
@@ -53,9 +53,10 @@ def pack(model):
     """(rows, projection counts, field counts) of the model's fields, as many rows per output as the most."""
     n, n_out = model.n_in, len(model.outputs)
     counts = np.zeros(n_out, dtype=np.int64)
+    slots = 1
     for k in range(n_out):
         counts[k] = len(model.outputs[k])
-    slots = max(1, counts.max())
+        slots = max(slots, counts[k])
     rows = np.zeros((n_out, slots, floats_per_rf(n)))
     n_reg = np.zeros((n_out, slots), dtype=np.int64)
     for k in range(n_out):
@@ -65,13 +66,13 @@ def pack(model):
             row[0], row[1] = rf.beta0, rf.sum_e2
             at = N_SCALARS
             for values in _vectors(rf):
-                row[at:at + n] = values
+                copy_into(row, values, at)
                 at += n
             for values in _matrices(rf):
-                row[at:at + n * n].reshape((n, n))[:, :] = values
+                copy_into(row, values, at)
                 at += n * n
-            row[at:at + n + 1] = rf.rls_theta
-            row[at + n + 1:].reshape((n + 1, n + 1))[:, :] = rf.rls_inverse
+            copy_into(row, rf.rls_theta, at)
+            copy_into(row, rf.rls_inverse, at + n + 1)
             n_reg[k, j] = rf.n_reg
     return rows, n_reg, counts
 
@@ -87,12 +88,12 @@ def unpack(model, rows, n_reg, counts):
             rf.beta0, rf.sum_e2 = row[0], row[1]
             at = N_SCALARS
             for values in _vectors(rf):
-                values[:] = row[at:at + n]
+                copy_into(values, row[at:at + n])
                 at += n
             for values in _matrices(rf):
-                values[:, :] = row[at:at + n * n].reshape((n, n))
+                copy_into(values, row[at:at + n * n])
                 at += n * n
-            rf.rls_theta[:] = row[at:at + n + 1]
-            rf.rls_inverse[:, :] = row[at + n + 1:].reshape((n + 1, n + 1))
+            copy_into(rf.rls_theta, row[at:at + n + 1])
+            copy_into(rf.rls_inverse, row[at + n + 1:])
             rf.n_reg = n_reg[k, j]
             model.outputs[k].append(rf)
