@@ -1,13 +1,14 @@
 """LWPR's cost per call at the deploy profiles' shapes (issue 32), in one process, no bus.
 
-    PYTHONPATH=. .venv/bin/python benchmarks/lwpr_calls.py [--turns 7]
+    PYTHONPATH=. .venv/bin/python benchmarks/lwpr_calls.py [--turns 9]
 
 Per shape (the point platform at dims=2, and benchmarks/lib/learner_costs.SHAPES): a model warmed on 3,000
 samples of a smooth map streamed like a robot's joints answers then learns each of the next 300 samples,
 as the learner box does (predict_one, learn_one: the median call); learn_many and predict_many per row
-(the 3,000 samples from a fresh model; 300 inputs; CPU time). Microseconds; each figure the fastest of
-`turns` turns, every turn from a copy of the same warm model, so a slow spell of a shared machine shows
-as a slower turn, not a slower figure. Prints a table; the last line is one JSON object of the figures.
+(the 3,000 samples from a fresh model; the warm model on all 3,300 inputs; CPU time). Microseconds;
+each figure the fastest of `turns` turns, every turn from a copy of the same warm model, so a slow
+spell of a shared machine shows as a slower turn, not a slower figure. Prints a table; the last line
+is one JSON object of the figures.
 """
 from __future__ import annotations
 
@@ -65,7 +66,7 @@ def measure(label: str, n_in: int, n_out: int, taught: int, turns: int) -> dict[
         predict, learn = per_call(type(warm).restore(snapshot), *after)
         fresh = make_learner("lwpr", n_in, n_out)
         batch = per_row(lambda fresh=fresh: fresh.learn_many(*lesson), WARM)
-        many = per_row(lambda: warm.predict_many(after[0]), CALLS)
+        many = per_row(lambda: warm.predict_many(xs), len(xs))
         for key, value in zip(best, (predict, learn, batch, many)):
             best[key] = min(best[key], value)
     best["fields"] = warm.size

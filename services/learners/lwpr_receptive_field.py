@@ -11,7 +11,7 @@ import math
 
 import numba as nb
 
-from .lwpr_model import FAST_MATH, RLS_PRIOR, copy_into
+from .lwpr_model import FAST_MATH, RLS_PRIOR
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
@@ -34,7 +34,8 @@ def cross_validated_errors(rf, xmz, ymz, e_cv, xres):
     """Errors of the RF's prediction with 1..n_reg projections, before this sample is learned."""
     u, p, beta = rf.U, rf.P, rf.beta
     n = xmz.shape[0]
-    copy_into(xres, xmz)
+    for i in range(n):
+        xres[i] = xmz[i]
     yp = 0.0
     for r in range(rf.n_reg):
         s = 0.0
@@ -56,7 +57,8 @@ def update_projections(rf, xmz, ymz, w, e_cv, xres):
     lam_v, sum_w, n_data = rf.lam, rf.sum_w, rf.n_data
     sum_ecv2, s_last = rf.sum_e_cv2, rf.s_last
     n = xmz.shape[0]
-    copy_into(xres, xmz)
+    for i in range(n):
+        xres[i] = xmz[i]
     yres = ymz
     lam0 = lam_v[0]
     for r in range(rf.n_reg):
