@@ -27,18 +27,39 @@ def test_fields_never_exceed_max_rfs_per_output():
     assert model.rfs_per_output == [12, 12]
 
 
-def test_snapshot_holds_only_used_slots():
-    """One field in use of the four slots allocated: only it travels (the bound was ten times an
-    untrimmed snapshot, so it could not fail)."""
-    from services.learners import lwpr_layout
+def test_snapshot_holds_only_the_fields_in_use():
+    """One field in use: only its row travels (the flat-array model allocated four)."""
+    from services.learners.lwpr_snapshot import floats_per_rf
 
     model = make_learner("lwpr", 3, 1)
     model.learn_many(np.zeros((5, 3)), np.zeros((5, 1)))
-    field_bytes = 8 * lwpr_layout.floats_per_rf(3)
-    assert model.rfs_per_output == [1] and model._rfs.shape[1] >= 4  # 4 slots, 1 used
+    field_bytes = 8 * floats_per_rf(3)
+    assert model.rfs_per_output == [1]
     assert len(model.snapshot()) < 2 * field_bytes, (len(model.snapshot()), field_bytes)
     restored = type(model).restore(model.snapshot())
     assert restored.rfs_per_output == [1] and restored.predict_one(np.zeros(3)).y == model.predict_one(np.zeros(3)).y
+
+
+@pytest.mark.parametrize("broken, message", [
+    (lambda state: state.pop("_nreg"), r"without its receptive fields \(_rfs, _nreg, _n_rfs\)"),
+    (lambda state: state.update(_rfs=state["_rfs"][:, :, :-1]), r"do not hold receptive fields of 3 inputs for 1 "),
+    (lambda state: state.update(_n_rfs=state["_n_rfs"] + 5), r"field counts \[6\] do not fit its 1 rows per output"),
+    (lambda state: state["_nreg"].fill(4), r"projection counts must lie in 1..3"),
+])
+def test_a_snapshot_whose_fields_do_not_fit_is_refused_with_what_is_wrong(broken, message):
+    """A snapshot may come from the bus: arrays that do not fit the model's shape are refused before the
+    compiled kernels (which check no bounds) read them."""
+    from services.learners.snapshot_codec import SnapshotError, dump
+
+    model = make_learner("lwpr", 3, 1)
+    model.learn_many(np.zeros((5, 3)), np.zeros((5, 1)))
+    state = model.__getstate__()
+    broken(state)
+    forged = object.__new__(type(model))
+    forged.__dict__.update(state)
+    forged.__getstate__ = lambda: state  # dump the broken state as it is
+    with pytest.raises(SnapshotError, match=message):
+        type(model).restore(dump(forged))
 
 
 def test_stale_kernel_cache_is_dropped_once(tmp_path):
@@ -111,10 +132,10 @@ def test_snapshot_from_before_novelty_scale_restores_with_its_default():
     model = _taught_with_one_input_constant()
     state = model.__getstate__()
     del state["novelty_scale"]
-    state["_hp"] = state["_hp"][:20]  # the kernels' vector before novelty_scale
+    state["_hp"] = np.zeros(20)  # the flat-array kernels' hyper-parameter vector, before novelty_scale
     old = object.__new__(type(model))
     old.__setstate__(pickle.loads(pickle.dumps(state)))
-    assert old.novelty_scale == 0.25 and old._hp.shape == model._hp.shape
+    assert old.novelty_scale == 0.25 and not hasattr(old, "_hp")
     probe = [0.3, -0.2, 1.0]
     assert old.predict_one(probe).confidence == model.predict_one(probe).confidence
 
@@ -145,14 +166,16 @@ def test_learn_many_refuses_inputs_that_overflow_once_scaled_and_never_loops():
 def test_a_broken_answer_is_replaced_not_clipped():
     """predict_one clips to the taught range and checks its answer inside the kernel (numpy no longer
     does): a NaN the model gives must still come out as the taught middle with confidence 0."""
-    from services.learners import lwpr_layout
+    from services.learners.lwpr_snapshot import N_MATRICES, N_SCALARS, N_VECTORS
 
     model = make_learner("lwpr", 2, 1, init_D=25.0)
     xs, ys = cross_training(300)
     model.learn_many(xs, ys)
     n = 2
-    theta = lwpr_layout.N_SCALARS + lwpr_layout.N_VECTORS * n + lwpr_layout.N_MATRICES * n * n
-    model._rfs[0, :, theta:theta + n + 1] = np.nan  # every field's exact fit, which gives its answer
+    theta = N_SCALARS + N_VECTORS * n + N_MATRICES * n * n
+    state = model.__getstate__()
+    state["_rfs"][0, :, theta:theta + n + 1] = np.nan  # every field's exact fit, which gives its answer
+    model.__setstate__(state)
     answer = model.predict_one(xs[0])
     assert answer.confidence == 0.0 and model.n_broken == 1
     assert np.allclose(answer.y, (ys.min() + ys.max()) / 2)

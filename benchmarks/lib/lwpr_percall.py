@@ -28,7 +28,7 @@ def _nothing8(a, b, c, d, e, f, g, h):
 
 @nb.njit
 def _nothing9(a, b, c, d, e, f, g, h, i):
-    return 0.0
+    return 0.0, False
 
 
 def _us_per_item(work, count: int, repeats: int = 5, fresh=None) -> float:
@@ -54,9 +54,7 @@ def per_call(count: int = 3000) -> dict[str, float]:
     y, interval = np.empty(1), np.empty(1)
 
     def fresh():
-        model = type(warm).restore(snapshot)  # a snapshot keeps only the fields in use: room for new ones,
-        model._grow()  # or the kernel called bare would return 'grow first' on every call
-        return model
+        return type(warm).restore(snapshot)
 
     def learn_method(m):
         for x, t in zip(xs, ys):
@@ -64,9 +62,9 @@ def per_call(count: int = 3000) -> dict[str, float]:
 
     def learn_with(function):
         def run(m):
-            taught = m._taught
+            taught, shown = m._taught, m._shown
             for x, t in zip(xs, ys):
-                function(m._rfs, m._nreg, m._n_rfs, m._hp, x, t, taught.low, taught.high)
+                function(m._model, x, t, x, taught.low, taught.high, shown.low, shown.high)
         return run
 
     def predict_method(m):
@@ -75,15 +73,15 @@ def per_call(count: int = 3000) -> dict[str, float]:
 
     def predict_with(function):
         def run(m):
-            taught = m._taught
+            taught, shown = m._taught, m._shown
             for x in xs:
-                function(m._rfs, m._nreg, m._n_rfs, m._hp, x, y, interval, taught.floor, taught.ceiling)
+                function(m._model, x, y, interval, taught.floor, taught.ceiling, x, shown.low, shown.high)
         return run
 
     model = fresh()  # numba compiles the empty functions for these argument types here, off the clock
-    _nothing8(model._rfs, model._nreg, model._n_rfs, model._hp, xs[0], ys[0], model._taught.low, model._taught.high)
-    _nothing9(model._rfs, model._nreg, model._n_rfs, model._hp, xs[0], y, interval, model._taught.floor,
-              model._taught.ceiling)
+    taught, shown = model._taught, model._shown
+    _nothing8(model._model, xs[0], ys[0], xs[0], taught.low, taught.high, shown.low, shown.high)
+    _nothing9(model._model, xs[0], y, interval, taught.floor, taught.ceiling, xs[0], shown.low, shown.high)
     runs = {
         "learn_one_us": learn_method,
         "learn_kernel_call_us": learn_with(kernels.learn_one),
@@ -98,7 +96,7 @@ def per_call(count: int = 3000) -> dict[str, float]:
     for _ in range(7):  # the ways of calling take turns, so that a slower spell of the machine hits them all
         for key, work in runs.items():
             figures[key] = min(figures[key], _us_per_item(work, count, repeats=1, fresh=fresh))
-    figures["cross_rfs"] = int(warm._n_rfs[0])
+    figures["cross_rfs"] = warm.rfs_per_output[0]
     return figures
 
 

@@ -169,8 +169,12 @@ class Learner:
 
     def _note_shown(self, xs: np.ndarray, ys: np.ndarray) -> None:
         """The inputs' taught range and the outputs' running mean (FADE), for rows or one pair."""
-        xs, ys = xs.reshape(-1, self.n_in), ys.reshape(-1, self.n_out)
-        self._shown.learn(xs)
+        self._shown.learn(xs.reshape(-1, self.n_in))
+        self._note_taught_mean(ys)
+
+    def _note_taught_mean(self, ys: np.ndarray) -> None:
+        """The outputs' running mean over every pair taught (FADE), for rows or one pair."""
+        ys = ys.reshape(-1, self.n_out)
         self._taught_count += len(ys)
         self._taught_mean = self._taught_mean + (ys.sum(0) - len(ys) * self._taught_mean) / self._taught_count
 

@@ -2,21 +2,20 @@
 Computation 17(12), 2005): Gaussian receptive fields, each an incremental partial least
 squares regression, created where no field is active (w < w_gen), pruned where two
 overlap (w > w_prune), each adapting its distance metric by gradient descent on its
-leave-one-out cost. The numerics live in compiled kernels (lwpr_kernels); this class
-holds the state, checks inputs and grows storage.
+leave-one-out cost. The model is one compiled structure (lwpr_model) that the compiled
+kernels (lwpr_kernels) take whole; this class checks hyper-parameters and inputs, and turns
+the model into arrays for snapshots (lwpr_snapshot).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from . import lwpr_layout as layout
 from .base import (
     Learner, Prediction, Predictions, as_matrix, as_vector, check_positive, check_range, kernel_ready,
 )
 from .errors import LearnerInputError
 from .registry import register
 
-_INITIAL_SLOTS = 4
 _new_tuple = tuple.__new__
 
 
@@ -73,43 +72,46 @@ class LWPR(Learner):
         self.norm_in = norm_in
         self.novelty_scale = novelty_scale
         self._input_scale = self._input_scale_from_norm()
-        self._hp = self._hyper_parameter_vector()
-        self._reset()
+        self._model = self._new_model()
 
-    def _hyper_parameter_vector(self) -> np.ndarray:
-        """Validated hyper-parameters packed for the kernels (ValueError names a bad one)."""
+    def _hyper_parameters(self) -> dict:
+        """Validated hyper-parameters as the kernels take them (ValueError names a bad one)."""
         n = self.n_in
-        hp = np.zeros(layout.N_HP)
-        init_d = default_init_d(n) if self.init_D is None else check_positive("init_D", self.init_D)
-        hp[layout.HP_INIT_D] = init_d
-        hp[layout.HP_INIT_ALPHA] = check_positive("init_alpha", self.init_alpha)
-        hp[layout.HP_W_GEN] = check_range("w_gen", self.w_gen, 0.0, 1.0)
-        hp[layout.HP_W_PRUNE] = check_range("w_prune", self.w_prune, 0.0, 1.0)
-        hp[layout.HP_W_CUTOFF] = check_range("w_cutoff", self.w_cutoff, 0.0, 1.0)
-        hp[layout.HP_INIT_LAMBDA] = check_range("init_lambda", self.init_lambda, 0.5, 1.0 - 1e-12)
-        hp[layout.HP_FINAL_LAMBDA] = check_range("final_lambda", self.final_lambda, 0.5, 1.0 - 1e-12)
-        hp[layout.HP_TAU_LAMBDA] = check_range("tau_lambda", self.tau_lambda, 0.0, 1.0)
-        hp[layout.HP_INIT_S2] = check_positive("init_S2", self.init_S2)
-        hp[layout.HP_ADD_THRESHOLD] = check_range("add_threshold", self.add_threshold, 0.0, 1.0)
+        hp = {"init_d": default_init_d(n) if self.init_D is None else check_positive("init_D", self.init_D)}
+        hp["init_alpha"] = check_positive("init_alpha", self.init_alpha)
+        hp["w_gen"] = check_range("w_gen", self.w_gen, 0.0, 1.0)
+        hp["w_prune"] = check_range("w_prune", self.w_prune, 0.0, 1.0)
+        hp["w_cutoff"] = check_range("w_cutoff", self.w_cutoff, 0.0, 1.0)
+        hp["init_lambda"] = check_range("init_lambda", self.init_lambda, 0.5, 1.0 - 1e-12)
+        hp["final_lambda"] = check_range("final_lambda", self.final_lambda, 0.5, 1.0 - 1e-12)
+        hp["tau_lambda"] = check_range("tau_lambda", self.tau_lambda, 0.0, 1.0)
+        hp["init_s2"] = check_positive("init_S2", self.init_S2)
+        hp["add_threshold"] = check_range("add_threshold", self.add_threshold, 0.0, 1.0)
         min_data = 2.0 * n if self.add_min_data is None else self.add_min_data
-        hp[layout.HP_ADD_MIN_DATA] = check_positive("add_min_data", min_data, strictly=False)
+        hp["add_min_data"] = check_positive("add_min_data", min_data, strictly=False)
         # projection counts beyond the number of inputs mean 'all of them'
-        hp[layout.HP_INIT_REG] = min(n, int(check_positive("init_reg", self.init_reg)))
+        hp["init_reg"] = min(n, int(check_positive("init_reg", self.init_reg)))
         max_reg = n if self.max_reg is None else self.max_reg
-        hp[layout.HP_MAX_REG] = min(n, int(check_positive("max_reg", max_reg)))
-        hp[layout.HP_PENALTY] = check_positive("penalty", self.penalty, strictly=False)
-        hp[layout.HP_META_RATE] = check_positive("meta_rate", self.meta_rate, strictly=False)
-        hp[layout.HP_MAX_RFS] = int(check_positive("max_rfs", self.max_rfs))
+        hp["max_reg"] = min(n, int(check_positive("max_reg", max_reg)))
+        hp["penalty"] = check_positive("penalty", self.penalty, strictly=False)
+        hp["meta_rate"] = check_positive("meta_rate", self.meta_rate, strictly=False)
+        hp["max_rfs"] = int(check_positive("max_rfs", self.max_rfs))
         for name in ("diag_only", "update_D", "meta", "exact_fit"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"hyper-parameter {name} must be True or False, got {getattr(self, name)!r}")
-        hp[layout.HP_DIAG_ONLY] = float(self.diag_only)
-        hp[layout.HP_UPDATE_D] = float(self.update_D)
-        hp[layout.HP_META] = float(self.meta)
-        hp[layout.HP_EXACT_FIT] = float(self.exact_fit)
+            hp[name.lower()] = bool(getattr(self, name))
         # 0 turns it off: confidence is then the activation alone
-        hp[layout.HP_NOVELTY_SCALE] = check_positive("novelty_scale", self.novelty_scale, strictly=False)
+        hp["novelty_scale"] = check_positive("novelty_scale", self.novelty_scale, strictly=False)
         return hp
+
+    def _new_model(self):
+        """A compiled model (lwpr_model.LWPRModel) with these hyper-parameters and no receptive field."""
+        from . import lwpr_model as m
+
+        _kernels()  # its cache checked first
+        hp = self._hyper_parameters()
+        return m.new_model(self.n_in, self.n_out, tuple(hp[name] for name in m.HYPER_FLOATS),
+                           tuple(hp[name] for name in m.HYPER_INTS), tuple(hp[name] for name in m.HYPER_FLAGS))
 
     def _input_scale_from_norm(self) -> np.ndarray | None:
         """1 / norm_in per input, or None when inputs are used as they are.
@@ -124,12 +126,6 @@ class LWPR(Learner):
             return None
         return np.broadcast_to(1.0 / norm, (self.n_in,)).copy()
 
-    def _reset(self) -> None:
-        slots = min(_INITIAL_SLOTS, int(self._hp[layout.HP_MAX_RFS]))
-        self._rfs = np.zeros((self.n_out, slots, layout.floats_per_rf(self.n_in)))
-        self._nreg = np.zeros((self.n_out, slots), dtype=np.int64)
-        self._n_rfs = np.zeros(self.n_out, dtype=np.int64)
-
     # --- learning ---------------------------------------------------------------------
     def learn_one(self, x, y) -> None:
         x, y = kernel_ready(x), kernel_ready(y)
@@ -140,16 +136,15 @@ class LWPR(Learner):
         if self._input_scale is not None:
             with np.errstate(over="ignore"):  # an overflow is refused below, with its reason
                 x = x * self._input_scale
-        kernels, taught = _loaded_kernels or _kernels(), self._taught
-        status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, taught.low, taught.high)
-        while status == 1:
-            self._grow()
-            status = kernels.learn_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, taught.low, taught.high)
+        kernels, taught, shown = _loaded_kernels or _kernels(), self._taught, self._shown
+        status = kernels.learn_one(self._model, x, y, raw, taught.low, taught.high, shown.low, shown.high)
         if status < 0:
             self._reject(status, x, y)
-        if status == 2:  # the kernel widened the taught range
+        if status & kernels.TAUGHT_WIDENED:  # the kernel widened the range in place
             taught.refresh()
-        self._note_shown(raw, y)
+        if status & kernels.SHOWN_WIDENED:
+            shown.refresh()
+        self._note_taught_mean(y)
         self._n_learned += 1
 
     def learn_many(self, xs, ys) -> None:
@@ -162,15 +157,10 @@ class LWPR(Learner):
             if len(overflowed):
                 row, column = overflowed[0]
                 self._reject(-1 - int(column), xs[row], ys[row])
-        kernels = _kernels()
-        row = 0
-        while row < xs.shape[0]:
-            status, row = kernels.learn_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs, ys, row)
-            if status == 1:
-                self._grow()
-            elif status < 0:  # a row the kernel refused: never retried for ever
-                self._n_learned += row
-                self._reject(status, xs[row], ys[row])
+        status, row = _kernels().learn_many(self._model, xs, ys)
+        if status < 0:  # a row the kernel refused: those before it are learned
+            self._n_learned += row
+            self._reject(status, xs[row], ys[row])
         self._taught.learn(ys)
         self._note_shown(raw, ys)
         self._n_learned += xs.shape[0]
@@ -183,16 +173,6 @@ class LWPR(Learner):
         index -= self.n_in
         raise LearnerInputError(f"output {index} is {y[index]}; learners need finite numbers")
 
-    def _grow(self) -> None:
-        """Double the slots per output (up to max_rfs); fields keep their place."""
-        slots = self._rfs.shape[1]
-        new_slots = min(int(self._hp[layout.HP_MAX_RFS]), 2 * slots)
-        rfs = np.zeros((self.n_out, new_slots, self._rfs.shape[2]))
-        rfs[:, :slots] = self._rfs
-        nreg = np.zeros((self.n_out, new_slots), dtype=np.int64)
-        nreg[:, :slots] = self._nreg
-        self._rfs, self._nreg = rfs, nreg
-
     # --- prediction -----------------------------------------------------------------
     def predict_one(self, x) -> Prediction:
         x = raw = kernel_ready(x)
@@ -200,23 +180,22 @@ class LWPR(Learner):
             as_vector(x, self.n_in, "inputs")
         if self._input_scale is not None:
             x = x * self._input_scale
-        kernels, taught = _loaded_kernels or _kernels(), self._taught
+        kernels, taught, shown = _loaded_kernels or _kernels(), self._taught, self._shown
         y, interval = np.empty(self.n_out), np.empty(self.n_out)
-        confidence = kernels.predict_one(self._rfs, self._nreg, self._n_rfs, self._hp, x, y, interval,
-                                         taught.floor, taught.ceiling)
+        confidence, beyond = kernels.predict_one(self._model, x, y, interval, taught.floor, taught.ceiling,
+                                                 raw, shown.low, shown.high)
         if confidence == -1.0:  # the kernel found a non-finite input
             as_vector(x, self.n_in, "inputs")
         if confidence == -2.0:  # an answer the model could not give
             return self._sane_one(y, 0.0, interval)
-        shown = self._shown
-        if (raw < shown.low).any() or (raw > shown.high).any():  # beyond what was shown: fade (base.FADE)
+        if beyond:  # beyond the inputs shown: fade (base.FADE)
             y = taught.bound(self._fade(raw[None, :], y[None, :])[0])
         # tuple.__new__ skips NamedTuple's Python-level __new__: 0.2 µs of a 2.5 µs call
         return _new_tuple(Prediction, (y, confidence, interval))
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         xs = kernel_ready(xs) if self._input_scale is None else xs * self._input_scale
-        ys, confidence, intervals = _kernels().predict_many(self._rfs, self._nreg, self._n_rfs, self._hp, xs)
+        ys, confidence, intervals = _kernels().predict_many(self._model, xs)
         return Predictions(ys, confidence, intervals)
 
     def _fade_widths(self, span: np.ndarray) -> np.ndarray:
@@ -224,13 +203,9 @@ class LWPR(Learner):
         narrowest field, in the input's units): the metric learns which inputs matter, and a distractor
         moving beyond its taught range (a leg, while the head mirrors the tail) must not fade the answer."""
         widths = super()._fade_widths(span)
-        n, used = self.n_in, int(self._n_rfs.max(initial=0))
-        if used == 0:
+        if self.size == 0:
             return widths
-        start = layout.N_SCALARS + layout.N_VECTORS * n + layout.METRIC_D * n * n
-        diagonal = self._rfs[:, :used, start:start + n * n][:, :, ::n + 1]  # (outputs, fields, n): D_ii
-        alive = np.arange(used)[None, :] < self._n_rfs[:, None]
-        sharpest = np.where(alive[:, :, None], diagonal, 0.0).max(axis=(0, 1))
+        sharpest = _kernels().sharpest_metric(self._model)
         with np.errstate(divide="ignore"):
             field = 1.0 / np.sqrt(sharpest)
         if self._input_scale is not None:
@@ -241,26 +216,40 @@ class LWPR(Learner):
     @property
     def size(self) -> int:
         """Receptive fields over all outputs."""
-        return int(self._n_rfs.sum())
+        return sum(self.rfs_per_output)
 
     @property
     def rfs_per_output(self) -> list[int]:
-        return [int(n) for n in self._n_rfs]
+        return _kernels().field_counts(self._model).tolist()
 
     def __getstate__(self) -> dict:
-        # only used slots travel in a snapshot
+        """The compiled model as arrays (lwpr_snapshot), under the names the flat-array version kept them:
+        a snapshot loads in either version."""
+        from . import lwpr_snapshot
+
         state = dict(self.__dict__)
-        used = max(1, int(self._n_rfs.max()))
-        state["_rfs"] = self._rfs[:, :used].copy()
-        state["_nreg"] = self._nreg[:, :used].copy()
+        del state["_model"]
+        state["_rfs"], state["_nreg"], state["_n_rfs"] = lwpr_snapshot.pack(self._model)
         return state
 
     def __setstate__(self, state: dict) -> None:
+        from . import lwpr_snapshot
+
+        state = dict(state)
+        state.pop("_hp", None)  # the flat-array version's hyper-parameter vector: made again from them
+        try:
+            rows, n_reg, counts = (state.pop(name) for name in ("_rfs", "_nreg", "_n_rfs"))
+        except KeyError:
+            raise ValueError("an LWPR snapshot without its receptive fields (_rfs, _nreg, _n_rfs)") from None
+        rows, n_reg, counts = (np.ascontiguousarray(a, dtype=dtype) for a, dtype in
+                               ((rows, np.float64), (n_reg, np.int64), (counts, np.int64)))
         super().__setstate__(state)
-        self._hp = self._hyper_parameter_vector()  # the kernels' layout of this version
-        taught = self._taught  # learn_one's kernel widens its range in place
-        taught.low, taught.high = np.array(taught.low, dtype=np.float64), np.array(taught.high, dtype=np.float64)
-        taught.refresh()  # writeable floor and ceiling too: a read-only array would compile the kernel again
+        lwpr_snapshot.check_rows(rows, n_reg, counts, self.n_in, self.n_out)
+        self._model = self._new_model()
+        lwpr_snapshot.unpack(self._model, rows, n_reg, counts)
+        for ranges in (self._taught, self._shown):  # learn_one's kernel widens them in place
+            ranges.low, ranges.high = np.array(ranges.low, dtype=np.float64), np.array(ranges.high, dtype=np.float64)
+            ranges.refresh()  # writeable floor and ceiling too: a read-only array would compile the kernel again
 
 
 register("lwpr", LWPR)

@@ -12,33 +12,29 @@ import math
 
 import numba as nb
 
-from .lwpr_layout import (
-    FAST_MATH,
-    ALPHA, CENTRE, H_TRACE, HP_META, HP_META_RATE, HP_PENALTY, LAMBDA, META_B, META_H,
-    METRIC_D, METRIC_M, N_DATA, R_TRACE, S_LAST, SS_S2, SUM_E2, SUM_E_CV2, SUM_W,
-    mat, vec,
-)
+from .lwpr_model import FAST_MATH
 
 E10, E_MINUS10 = math.exp(10.0), math.exp(-10.0)  # bounds of the meta rates, as exp(+-10)
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def trusted_projections(st, n, n_reg, ok):
+def trusted_projections(rf, ok):
     """A projection's statistics enter the gradient once it has seen 0.1/(1-lambda) samples."""
-    lam, n_data = vec(st, LAMBDA, n), vec(st, N_DATA, n)
-    for r in range(n_reg):
+    lam, n_data = rf.lam, rf.n_data
+    for r in range(rf.n_reg):
         ok[r] = 1.0 if n_data[r] > 0.1 / (1.0 - lam[r]) else 0.0
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok, meta):
+def cost_derivatives_in_w(rf, w, e_cv, e, ok, meta):
     """dJ1/dw, its second derivative (only for meta-learning), the hat value h and the damping."""
-    s, ss_s2 = vec(st, S_LAST, n), vec(st, SS_S2, n)
-    h_tr, r_tr = vec(st, H_TRACE, n), vec(st, R_TRACE, n)
-    inv_w = 1.0 / vec(st, SUM_W, n)[0]
-    big_e = vec(st, SUM_E_CV2, n)[n_reg - 1]
+    s, ss_s2 = rf.s_last, rf.ss_s2
+    h_tr, r_tr = rf.h_trace, rf.r_trace
+    n_reg = rf.n_reg
+    inv_w = 1.0 / rf.sum_w[0]
+    big_e = rf.sum_e_cv2[n_reg - 1]
     # damping while the fit is still far worse in cross-validation than in training
-    transient = min(1.0, (st[SUM_E2] / (big_e + 1e-10)) ** 4)
+    transient = min(1.0, (rf.sum_e2 / (big_e + 1e-10)) ** 4)
     h = 0.0
     h_pse = 0.0
     r_ps2 = 0.0
@@ -65,90 +61,89 @@ def cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok, meta):
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def update_metric(st, n, n_reg, x, w, e_cv, e, diag_only, hp, ok, mdx):
+def update_metric(rf, x, w, e_cv, e, model, ok, mdx):
     """One gradient step on M (and on the learning rates when meta is on)."""
-    trusted_projections(st, n, n_reg, ok)
+    trusted_projections(rf, ok)
     if not ok[0]:
         return
-    meta = hp[HP_META] != 0.0
-    dj1dw, d2j1dw2, h, transient = cost_derivatives_in_w(st, n, n_reg, w, e_cv, e, ok, meta)
-    w_over_big_w = w / vec(st, SUM_W, n)[0]
-    penalty = hp[HP_PENALTY] / n
-    c = vec(st, CENTRE, n)
-    m, d, alpha = mat(st, METRIC_M, n), mat(st, METRIC_D, n), mat(st, ALPHA, n)
-    b, hm = mat(st, META_B, n), mat(st, META_H, n)
+    meta, diag_only = model.meta, model.diag_only
+    dj1dw, d2j1dw2, h, transient = cost_derivatives_in_w(rf, w, e_cv, e, ok, meta)
+    w_over_big_w = w / rf.sum_w[0]
+    n = x.shape[0]
+    penalty = model.penalty / n
+    c, m, d, alpha = rf.centre, rf.M, rf.D, rf.alpha
+    b, hm = rf.meta_b, rf.meta_h
     max_m = 0.0
     for r in range(n):  # (M dx)_r, with M upper triangular
         acc = 0.0
         for col in range(r, r + 1 if diag_only else n):
-            acc += m[r * n + col] * (x[col] - c[col])
-            max_m = max(max_m, abs(m[r * n + col]))
+            acc += m[r, col] * (x[col] - c[col])
+            max_m = max(max_m, abs(m[r, col]))
         mdx[r] = acc
     dwdq, d2wdq2 = -0.5 * w, 0.25 * w  # Gaussian kernel w = exp(-q/2)
     for r in range(n):
         end = r + 1 if diag_only else n  # a diagonal M has nothing right of its diagonal
         row_m2 = 0.0
         for k in range(r, end):
-            row_m2 += m[r * n + k] * m[r * n + k]
+            row_m2 += m[r, k] * m[r, k]
         for col in range(r, end):
-            i = r * n + col
             dxl = x[col] - c[col]
             md = 0.0  # (M D)_rl
             for k in range(r, end):
-                md += m[r * n + k] * d[k * n + col]
+                md += m[r, k] * d[k, col]
             dqdm = 2.0 * mdx[r] * dxl
             dwdm = dwdq * dqdm
             djdm = dwdm * dj1dw + w_over_big_w * 4.0 * penalty * md
             if meta:
                 d2wdm2 = d2wdq2 * dqdm * dqdm + dwdq * 2.0 * dxl * dxl
-                d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[i] ** 2 + 2.0 * d[col * n + col])
+                d2j2 = 2.0 * penalty * (2.0 * row_m2 + 2.0 * m[r, col] ** 2 + 2.0 * d[col, col])
                 d2jdm2 = d2wdm2 * dj1dw + dwdm * dwdm * d2j1dw2 + w_over_big_w * d2j2
-                meta_step(i, b, alpha, hm, djdm, d2jdm2, transient, hp[HP_META_RATE])
-            delta = alpha[i] * djdm * transient
+                meta_step(r, col, b, alpha, hm, djdm, d2jdm2, transient, model.meta_rate)
+            delta = alpha[r, col] * djdm * transient
             if delta > 0.1 * max_m:  # a step that would shrink M this much is a bad sign
-                alpha[i] *= 0.5
+                alpha[r, col] *= 0.5
                 delta = 0.0
-            m[i] -= delta
-    rebuild_d(m, d, n, diag_only)
-    update_traces(st, n, n_reg, w, e_cv, h, transient, ok)
+            m[r, col] -= delta
+    rebuild_d(m, d, diag_only)
+    update_traces(rf, w, e_cv, h, transient, ok)
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, inline="always")
-def meta_step(i, b, alpha, hm, djdm, d2jdm2, transient, meta_rate):
-    """Incremental delta-bar-delta on entry i's learning rate (and its memory trace)."""
-    step = min(0.1, max(-0.1, meta_rate * transient * djdm * hm[i]))
+def meta_step(r, col, b, alpha, hm, djdm, d2jdm2, transient, meta_rate):
+    """Incremental delta-bar-delta on entry (r, col)'s learning rate (and its memory trace)."""
+    step = min(0.1, max(-0.1, meta_rate * transient * djdm * hm[r, col]))
     # b holds exp(meta log-rate): exp(b - step) = b * exp(-step), and a cubic gives
     # exp(-step) to 5e-6 for |step| <= 0.1 without an exp per entry
-    b[i] = min(E10, max(E_MINUS10, b[i] * (1.0 - step * (1.0 - step * (0.5 - step / 6.0)))))
-    alpha[i] = b[i]  # as in the reference, this also undoes any earlier halving
-    hm[i] = hm[i] * max(0.0, 1.0 - alpha[i] * d2jdm2 * transient) - alpha[i] * djdm * transient
+    b[r, col] = min(E10, max(E_MINUS10, b[r, col] * (1.0 - step * (1.0 - step * (0.5 - step / 6.0)))))
+    alpha[r, col] = b[r, col]  # as in the reference, this also undoes any earlier halving
+    hm[r, col] = hm[r, col] * max(0.0, 1.0 - alpha[r, col] * d2jdm2 * transient) - alpha[r, col] * djdm * transient
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def rebuild_d(m, d, n, diag_only):
+def rebuild_d(m, d, diag_only):
     """D = M'M."""
+    n = m.shape[0]
     if diag_only:
         for i in range(n):
-            d[i * n + i] = m[i * n + i] ** 2
+            d[i, i] = m[i, i] ** 2
         return
     for i in range(n):
         for j in range(i, n):
             acc = 0.0
             for k in range(min(i, j) + 1):
-                acc += m[k * n + i] * m[k * n + j]
-            d[i * n + j] = acc
-            d[j * n + i] = acc
+                acc += m[k, i] * m[k, j]
+            d[i, j] = acc
+            d[j, i] = acc
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH)
-def update_traces(st, n, n_reg, w, e_cv, h, transient, ok):
+def update_traces(rf, w, e_cv, h, transient, ok):
     """The H and R memory traces of the incremental leave-one-out gradient."""
     if h >= 1.0:
         return
-    s, lam = vec(st, S_LAST, n), vec(st, LAMBDA, n)
-    h_tr, r_tr = vec(st, H_TRACE, n), vec(st, R_TRACE, n)
-    for r in range(n_reg):
+    s, lam = rf.s_last, rf.lam
+    h_tr, r_tr = rf.h_trace, rf.r_trace
+    for r in range(rf.n_reg):
         if ok[r]:
             h_tr[r] = lam[r] * h_tr[r] + w / (1.0 - h) * s[r] * e_cv * transient
             r_tr[r] = lam[r] * r_tr[r] + w * w * e_cv * e_cv / (1.0 - h) * s[r] ** 2 * transient
-
