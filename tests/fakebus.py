@@ -131,7 +131,8 @@ def _hand(declarations: list[FakeDeclaration], key: str, payload: bytes, kind) -
 
 
 class FakeStop:
-    """A box's stop flag that a test sets, or that sets itself after `after` loop turns."""
+    """A box's stop flag that a test sets, or that sets itself once asked `after` times (a box's loop asks
+    once per batch; fetch_spaces once per attempt)."""
 
     def __init__(self, after: int | None = None):
         self.left, self.stopped = after, False
