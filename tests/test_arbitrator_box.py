@@ -1,8 +1,6 @@
 """The arbitrator box on a fake bus (payloads in, publications out): deadlines and members not waited
 for, the learner fallback, partial teachers' masks, clipping; and the in-process Algorithm 2
 (services.experiments.loop.tick) deciding exactly as the box does."""
-import logging
-
 import numpy as np
 import zenoh
 
@@ -12,7 +10,7 @@ from services.arbitration.strategies import TeacherFirst
 from services.boxes.arbitrator import MISSES_BEFORE_IGNORED, Arbitrator
 from services.experiments.loop import tick as in_process_tick
 from services.learners import make_learner
-from tests.fakebus import FakeSession
+from tests.fakebus import fake_box
 
 KEYS = InstanceKeys("main")
 SPACES = Spaces(Box((-1.0, -1.0), (1.0, 1.0)), Box((-0.5, -0.5), (0.5, 0.5)))
@@ -23,9 +21,8 @@ class Bench:
     """An Arbitrator on a fake bus, with a clock the test moves."""
 
     def __init__(self, learner=None):
-        self.bus, self.now = FakeSession(), 100.0
-        self.arb = Arbitrator(self.bus, KEYS, SPACES, TeacherFirst(), DEADLINE, learner, "teacher", 64,
-                              logging.getLogger("test.arbitrator"))
+        box, self.now = fake_box("arbitrator", "arbitrator"), 100.0
+        self.bus, self.arb = box.session, Arbitrator(box, SPACES, TeacherFirst(), DEADLINE, learner, "teacher", 64)
 
     def alive(self, role, name, on=True):
         self.arb.on_alive(KEYS.alive(role, name), zenoh.SampleKind.PUT if on else zenoh.SampleKind.DELETE)

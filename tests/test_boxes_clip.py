@@ -1,7 +1,5 @@
 """Every command leaves the learner and the arbitrator inside the output space (a fake bus records
 what they publish): a learner's answer, or a teacher's, outside it is clipped and counted."""
-import logging
-
 import numpy as np
 import zenoh
 
@@ -12,38 +10,22 @@ from services.boxes.arbitrator import Arbitrator
 from services.boxes.learner import LearnerNode
 from services.learners.base import Prediction
 from services.pairlog import PairLog
+from tests.fakebus import fake_box
 
 KEYS = InstanceKeys("main")
 SPACES = Spaces(Box((-1.0, -1.0), (1.0, 1.0)), Box((-0.5, 0.0), (0.5, 2.0)))
-LOG = logging.getLogger("test")
-
-
-class FakePublisher:
-    def __init__(self, key):
-        self.key, self.sent = key, []
-
-    def put(self, payload):
-        self.sent.append(payload)
-
-
-class FakeSession:
-    def __init__(self):
-        self.publishers = {}
-
-    def declare_publisher(self, key, **options):
-        return self.publishers.setdefault(key, FakePublisher(key))
 
 
 def test_the_arbitrator_clips_a_teachers_command_and_what_it_teaches():
-    session = FakeSession()
-    arb = Arbitrator(session, KEYS, SPACES, TeacherFirst(), 0.02, None, "teacher", 16, LOG)
+    box = fake_box("arbitrator")
+    arb = Arbitrator(box, SPACES, TeacherFirst(), 0.02, None, "teacher", 16)
     arb.members.update(KEYS.alive("teaching", "wild"), zenoh.SampleKind.PUT)
     arb.on_input(KEYS.input, encode(Input(1, 0.0, np.zeros(2))), 0.0)
     arb.on_proposal(f"{KEYS.prefix}/proposal/teacher/wild",
                     encode(Proposal(1, "teacher/wild", np.array([3.0, -7.0]), 1.0)), 0.001)
     arb.decide_ready(0.001)
-    command = decode(Command, session.publishers[KEYS.command].sent[-1], KEYS.command)
-    pair = decode(TrainingPair, session.publishers[KEYS.train].sent[-1], KEYS.train)
+    command = decode(Command, box.session.on(KEYS.command)[-1], KEYS.command)
+    pair = decode(TrainingPair, box.session.on(KEYS.train)[-1], KEYS.train)
     assert command.y.tolist() == [0.5, 0.0] and pair.y.tolist() == [0.5, 0.0]
     assert arb.counts["clipped_commands"] == 1
 
@@ -57,9 +39,9 @@ class Wild:
 
 
 def test_the_learner_clips_its_proposal_and_counts_it():
-    session = FakeSession()
-    node = LearnerNode(session, KEYS, "student", Wild(), PairLog(2, 2), LOG, SPACES.output)
+    box = fake_box("learner", "student")
+    node = LearnerNode(box, Wild(), PairLog(2, 2), SPACES.output)
     node.answer(Input(7, 0.0, np.zeros(2)))
-    proposal = decode(Proposal, session.publishers[KEYS.proposal("learner", "student")].sent[-1], "proposal")
+    proposal = decode(Proposal, box.session.on(KEYS.proposal("learner", "student"))[-1], "proposal")
     assert proposal.y.tolist() == [-0.5, 1.0] and proposal.tick == 7
     assert node.counts["clipped"] == 1

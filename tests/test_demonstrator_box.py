@@ -1,13 +1,11 @@
 """The demonstrator box on a fake bus: switched by the teach key, it holds its teaching token and
 hears the inputs only while on, answers the newest input of a batch, and rejects what is malformed."""
-import logging
-
 import numpy as np
 
-from bus_schema import InstanceKeys, Input, Proposal, TeachSwitch, decode, encode
+from bus_schema import InstanceKeys, Input, Proposal, Status, TeachSwitch, decode, encode
 from bus_schema.spaces import Box, Spaces
 from services.boxes.demonstrator import Demonstrator
-from tests.fakebus import FakeSession
+from tests.fakebus import FakeStop, fake_box
 
 KEYS = InstanceKeys("main")
 SPACES = Spaces(Box((-1.0, -1.0), (1.0, 1.0)), Box((-1.0,), (1.0,)))
@@ -18,17 +16,19 @@ def doubler(x):
 
 
 def bench(role="teacher"):
-    bus = FakeSession()
-    box = Demonstrator(bus, KEYS, SPACES, doubler, "doubler", role, logging.getLogger("test.demonstrator"))
+    runtime = fake_box(role, "doubler")
+    box = Demonstrator(runtime, SPACES, doubler)
     box.listen(role == "default")
-    return bus, box
+    return runtime.session, box
 
 
 def step(bus, box, *puts):
-    """Deliver each (key, payload) as the bus would, then let the box handle what it heard."""
+    """Deliver each (key, payload) as the bus would, then let the box's loop handle what it heard (one turn)."""
     for key, payload in puts:
         bus.deliver(key, payload)
-    box.handle(box.inbox.drain(0.0))
+    box.box.stop = FakeStop(1)
+    for batch in box.box.batches(0.0, box.report):
+        box.handle(batch)
 
 
 def teach(on, teacher=""):
@@ -48,12 +48,14 @@ def test_silent_until_switched_on_then_it_answers_the_newest_input_only():
     bus, box = bench()
     assert bus.deliver(*inp(1)) == 0 and not bus.tokens  # off: not even listening
     step(bus, box, teach(True))
-    assert [t.key for t in bus.tokens] == [KEYS.teaching("doubler")]
+    assert [t.key for t in bus.tokens] == [KEYS.alive("teacher", "doubler"), KEYS.teaching("doubler")]
+    [status] = [decode(Status, raw, "k") for raw in bus.on(KEYS.status("teacher", "doubler"))]
+    assert status.state["teaching"] is True and status.counters["switches"] == 1
     step(bus, box, inp(2, (0.1, 0.0)), inp(3, (0.3, 0.0)))
     [answer] = proposals(bus)
     assert answer.tick == 3 and np.allclose(answer.y, [0.6]) and answer.source == "teacher/doubler"
     step(bus, box, teach(True, "someone-else"), teach(False))
-    assert not bus.tokens and bus.deliver(*inp(4)) == 0
+    assert [t.key for t in bus.tokens] == [KEYS.alive("teacher", "doubler")] and bus.deliver(*inp(4)) == 0
     assert box.counts["switches"] == 2 and box.counts["inputs"] == 2  # on and off; not the one for another teacher
 
 
@@ -61,7 +63,8 @@ def test_a_default_controller_always_answers_and_ignores_switches():
     bus, box = bench("default")
     step(bus, box, teach(False), inp(7))
     answers = [decode(Proposal, p, "k") for p in bus.on(KEYS.proposal("default", "doubler"))]
-    assert [a.tick for a in answers] == [7] and not bus.tokens and box.counts["switches"] == 0
+    assert [a.tick for a in answers] == [7] and box.counts["switches"] == 0
+    assert [t.key for t in bus.tokens] == [KEYS.alive("default", "doubler")], "no teaching token: always on"
 
 
 def test_malformed_and_hostile_inputs_are_rejected_and_counted_and_it_keeps_answering():

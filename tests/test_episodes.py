@@ -4,17 +4,16 @@ import numpy as np
 
 from bus_schema import Command, Episode, InstanceKeys, Reward, decode, encode
 from services.boxes.platform import PlatformLoop
-from services.bus.lifecycle import setup_logging
 from services.platforms.gym import GymPlatform
 from services.platforms.point import PointPlatform
-from tests.fakebus import FakeSession
+from tests.fakebus import FakeSession, fake_box
 
 KEYS = InstanceKeys("main")
 
 
 def drive(platform, modes: list[str]) -> FakeSession:
     bus = FakeSession()
-    loop = PlatformLoop(bus, KEYS, platform, setup_logging("platform", "test"))
+    loop = PlatformLoop(fake_box("platform", "test", bus=bus), platform)
     for mode in modes:
         loop.publish_input()
         loop.on_command(KEYS.command, encode(Command(loop.tick, 0.0, np.array([1.0, 0.0]), mode, "x/y", 1.0)))

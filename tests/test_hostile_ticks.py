@@ -12,11 +12,10 @@ from bus_schema import Applied, Command, InstanceKeys, decode, encode
 from services.arbitration.ticks import CONFIRMING, MAX_TICK_JUMP, TickTable
 from services.boxes import platform as box
 from services.platforms import make_platform
-from tests.fakebus import FakeSession
+from tests.fakebus import FakeSession, fake_box
 
 FAR = 2 ** 63 - 1
 KEYS = InstanceKeys("main")
-LOG = logging.getLogger("test.hostile_ticks")
 
 
 def command(tick, y=(0.1, 0.2)):
@@ -32,12 +31,12 @@ def point():
 @pytest.mark.parametrize("tick", [FAR, 3 + 10 ** 9, 4, 0])
 def test_the_platform_refuses_a_command_for_a_tick_it_never_published(tick, point, caplog):
     bus = FakeSession()
-    loop = box.PlatformLoop(bus, KEYS, point, LOG)
+    loop = box.PlatformLoop(fake_box("platform", "platform", bus=bus), point)
     for _ in range(3):
         loop.publish_input()
-    with caplog.at_level(logging.WARNING, logger=LOG.name):
+    with caplog.at_level(logging.WARNING, logger=loop.log.name):
         loop.on_command(KEYS.command, command(tick, (0.9, -0.9)))
-    assert loop.rejects.counts == {KEYS.command: 1} and loop.status()[0]["rejected"] == 1
+    assert loop.rejects.counts == {KEYS.command: 1} and loop.box.status_report(loop.report)[0]["rejected"] == 1
     assert f"a command for tick {tick}, which this platform has not published (its last tick is 3)" in caplog.text
     assert loop.latest is None and loop.answered == set() and loop.counts["commands"] == 0
     for _ in range(3):  # the real loop goes on: each tick's command is applied, the hostile one never

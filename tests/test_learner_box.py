@@ -1,16 +1,14 @@
 """The learner box on a fake bus: a gap in the training pairs filled from the arbitrator's recent pairs,
 pairs it no longer has counted lost, partial pairs, clipped proposals, and the pair log holding every
 pair learned, in order. Epochs and hostile seqs: tests/test_learner_box_hostile.py."""
-import logging
-
 import numpy as np
 
-from bus_schema import InstanceKeys, PairBatch, Proposal, TrainingPair, decode, encode
+from bus_schema import InstanceKeys, Input, PairBatch, Proposal, Status, TrainingPair, decode, encode
 from bus_schema.spaces import Box
 from services.boxes.learner import LearnerNode
 from services.learners import make_learner
 from services.pairlog import PairLog
-from tests.fakebus import FakeSession
+from tests.fakebus import FakeStop, fake_box
 
 KEYS = InstanceKeys("main")
 
@@ -35,12 +33,10 @@ def pair(seq: int, epoch: str = "e1", mask=None) -> TrainingPair:
 
 
 def node(*recent: TrainingPair, model=None):
-    bus = FakeSession()
-    bus.answer(KEYS.train_recent, Recent(*recent))
-    model = model or make_learner("knn", 2, 1)
-    learner = LearnerNode(bus, KEYS, "student", model, PairLog(2, 1), logging.getLogger("test.learner"),
-                          Box((-1.0,), (1.0,)))
-    return learner, bus
+    box = fake_box("learner", "student")
+    box.session.answer(KEYS.train_recent, Recent(*recent))
+    learner = LearnerNode(box, model or make_learner("knn", 2, 1), PairLog(2, 1), Box((-1.0,), (1.0,)))
+    return learner, box.session
 
 
 def test_a_gap_is_filled_from_the_arbitrators_recent_pairs():
@@ -77,3 +73,22 @@ def test_proposals_are_clipped_to_the_output_space():
     (payload,) = bus.on(KEYS.proposal("learner", "student"))
     proposal = decode(Proposal, payload, KEYS.proposal("learner", "student"))
     assert proposal.tick == 7 and proposal.y.tolist() == [1.0] and learner.counts["clipped"] == 1
+
+
+def test_its_loop_answers_the_newest_input_of_a_batch_before_learning_the_batchs_pairs():
+    learner, bus = node()
+    runtime = learner.box
+    runtime.subscribe(KEYS.train, "train")  # as its main declares them
+    runtime.subscribe(KEYS.input, "input")
+    for tick in (1, 2):
+        bus.deliver(KEYS.input, encode(Input(tick, 0.0, np.zeros(2))))
+    bus.deliver(KEYS.train, encode(pair(1)))
+    bus.deliver(KEYS.input, b"\xc1")
+    runtime.stop = FakeStop(1)
+    for batch in runtime.batches(0.0, learner.report):
+        learner.handle(batch)
+    [answer] = [decode(Proposal, p, "k") for p in bus.on(KEYS.proposal("learner", "student"))]
+    assert answer.tick == 2 and answer.learned == 0, "answered before the batch's pair was learned"
+    assert learner.seq == 1 and learner.model.n_learned == 1
+    [status] = [decode(Status, p, "k") for p in bus.on(KEYS.status("learner", "student"))]
+    assert status.counters["learned"] == 1 and status.counters["seq"] == 1 and status.counters["rejected"] == 1

@@ -1,26 +1,24 @@
 """Valid-but-hostile values at the learner service (issue 12): a training pair whose seq jumps by a
 billion, and history queries with bad parameters. Rejected, counted, and learning goes on."""
-import logging
 import math
 
 import numpy as np
 import zenoh
 
-from bus_schema import InstanceKeys, TrainingPair
+from bus_schema import TrainingPair
 from bus_schema.spaces import Box
 from services.boxes.learner import LearnerNode, history_query_problem
 from services.learners import make_learner
 from services.pairlog import PairLog
-from tests.fakebus import FakeSession
+from tests.fakebus import fake_box
 from tests.test_learner_box import Recent
 
 
 def node(recent: dict | None = None) -> LearnerNode:
     """The learner box on a fake bus: `recent` are the arbitrator's pairs by seq."""
-    bus, keys = FakeSession(), InstanceKeys("main")
-    bus.answer(keys.train_recent, Recent(*(recent or {}).values()))
-    return LearnerNode(bus, keys, "learner", make_learner("knn", 2, 1), PairLog(2, 1), logging.getLogger("t"),
-                       Box((-1.0,), (1.0,)))
+    box = fake_box("learner", "learner")
+    box.session.answer(box.keys.train_recent, Recent(*(recent or {}).values()))
+    return LearnerNode(box, make_learner("knn", 2, 1), PairLog(2, 1), Box((-1.0,), (1.0,)))
 
 
 def pair(seq, epoch="e1"):

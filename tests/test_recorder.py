@@ -150,7 +150,7 @@ def test_a_full_disk_is_an_error_and_recording_resumes_when_it_can(tmp_path, mon
     for i, (key, raw) in enumerate(samples(10)):
         rec.on_sample(key, raw, 100 + i)
     writer.close()
-    assert rec.error == "" and rec.status()[1]["error"] == ""
+    assert rec.error == "" and rec.report()[1]["error"] == ""
     assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/input") == 10
 
 
@@ -205,4 +205,4 @@ def test_a_person_pauses_and_resumes_recording_and_the_file_says_so(tmp_path):
     assert keys.count("dl/main/record") == 3, "every switch recorded: the gap is explained"
     assert len(keys) - 3 == 30 + (len(stream) - 75)  # the samples before the pause and after the resume
     assert rec.counts["paused_samples"] == 45
-    assert rec.status()[1]["recording"] is True
+    assert rec.report()[1]["recording"] is True

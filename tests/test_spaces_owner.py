@@ -11,7 +11,7 @@ import zenoh
 from bus_schema import InstanceKeys, PairBatch, SpacesMessage, TrainingPair, encode
 from bus_schema.spaces import Box, Spaces
 from rigs.harness import wait_until
-from services.boxes.common import fetch_spaces
+from services.bus.queries import fetch_spaces
 from services.bus.config import zenoh_config
 from services.pairlog import PairLog, PairLogError
 
@@ -75,12 +75,12 @@ def test_spaces_that_two_answerers_disagree_on_are_not_trusted(router, caplog):
     with zenoh.open(zenoh_config(connect=[router], mode="client")) as session:
         wait_answerers(session, keys.spaces, 2)
         with caplog.at_level("ERROR"):
-            assert fetch_spaces(session, keys, False, log, timeout=2.5) is None
+            assert fetch_spaces(session, keys.spaces, False, log, timeout=2.5) is None
         assert "disagree (18 -> 2; 3 -> 2)" in caplog.text
         stops[1].set()  # the stranger leaves: the platform's answer stands alone
         threads[1].join(5)
         wait_answerers(session, keys.spaces, 1)
-        got = fetch_spaces(session, keys, False, log, timeout=5.0)
+        got = fetch_spaces(session, keys.spaces, False, log, timeout=5.0)
         assert got is not None and got.input.dims == 18
     stops[0].set()
     threads[0].join(5)

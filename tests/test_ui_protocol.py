@@ -109,13 +109,12 @@ def test_another_sites_page_and_a_wrong_token_are_refused():
 def bridge_on_fake_bus():
     from bus_schema import Box, Spaces
     from services.ui.bridge import Bridge as BusBridge
-    from tests.fakebus import FakeSession
+    from tests.fakebus import fake_box
     output = Box([-0.15, -0.8], [0.15, 0.8], ["forward", "turn"], ["m/s", "rad/s"])
     spaces = Spaces(Box.uniform(3, -1.0, 1.0, "x", "1"), output)
     views = []
-    bus = FakeSession()
-    return BusBridge(bus, "main", "aibo", "person", spaces, lambda kind, p: views.append((kind, p)),
-                     logging.getLogger("test")), bus, views
+    box = fake_box("ui", "ui")
+    return BusBridge(box, "aibo", "person", spaces, lambda kind, p: views.append((kind, p))), box.session, views
 
 
 def test_the_person_teaches_only_what_they_press_and_lets_go():

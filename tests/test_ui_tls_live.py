@@ -50,26 +50,29 @@ def test_the_bridge_declares_on_the_main_thread_so_exit_waits_for_its_callback_t
 
     import zenoh
 
-    from bus_schema import Box, Spaces
+    from bus_schema import Box, InstanceKeys, Spaces
     from services.bus.config import zenoh_config
+    from services.bus.runtime import BoxRuntime
     from services.ui.bridge import Bridge
+    from tests.fakebus import FakeStop
 
     def callback_threads():
         return [t for t in threading.enumerate() if t is not threading.main_thread() and "pyo3" in t.name]
     spaces = Spaces(Box.uniform(2, -1.0, 1.0), Box.uniform(2, -1.0, 1.0))
     with zenoh.open(zenoh_config(connect=[router], mode="client")) as session:
         before = set(callback_threads())
-        bridge = Bridge(session, "main", "none", "person", spaces, lambda *_: None, logging.getLogger("test"))
-        refused = []
-        daemon = threading.Thread(target=lambda: refused.append(pytest.raises(RuntimeError, bridge.declare)),
-                                  daemon=True)
-        daemon.start()
-        daemon.join(10)
-        assert refused and "daemon" in str(refused[0].value) and not set(callback_threads()) - before
-        bridge.declare()  # as `dogged ui` does, on its main thread
-        made = [t for t in callback_threads() if t not in before]
-        assert made and not any(t.daemon for t in made)
-        done = threading.Event()
-        done.set()
-        bridge.run(done)  # ends at once, and undeclares: the callback threads end with the interpreter alive
+        box = BoxRuntime(session, InstanceKeys("main"), "ui", "ui", stop=FakeStop(0), log=logging.getLogger("test"))
+        with box:
+            bridge = Bridge(box, "none", "person", spaces, lambda *_: None)
+            refused = []
+            daemon = threading.Thread(target=lambda: refused.append(pytest.raises(RuntimeError, bridge.declare)),
+                                      daemon=True)
+            daemon.start()
+            daemon.join(10)
+            assert refused and "daemon" in str(refused[0].value) and not set(callback_threads()) - before
+            bridge.declare()  # as `dogged ui` does, on its main thread
+            made = [t for t in callback_threads() if t not in before]
+            assert made and not any(t.daemon for t in made)
+            bridge.run()  # stopped: ends at once
+        # the runtime ended, its declarations with it: the callback threads end with the interpreter alive
         wait_until(lambda: not any(t.is_alive() for t in made), 10, "the callback threads ended")

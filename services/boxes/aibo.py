@@ -21,9 +21,8 @@ import zenoh
 from bus_schema import ArenaReset, Clock, Frame, Handle, InstanceKeys, RobotKeys, RobotState, SpacesMessage, encode
 from services.boxes.platform import PlatformLoop, finish, run_ticks
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import sensor_publisher
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 from services.perception.jpeg import encode_rgb
 from services.platforms.aibo.camera import HEIGHT, WIDTH
 from services.platforms.aibo.platform import COMMAND_MODES, AiboPlatform
@@ -32,18 +31,16 @@ STATE_HZ = 20.0
 
 
 class AiboLoop(PlatformLoop):
-    role = "aibo"
-
-    def __init__(self, session, keys, robot_keys, platform: AiboPlatform, log, name, input_mode, camera_hz,
-                 latency_log=None):
-        super().__init__(session, keys, platform, log, latency_log, name=name)
+    def __init__(self, box: BoxRuntime, robot_keys: RobotKeys, platform: AiboPlatform, input_mode: str,
+                 camera_hz: float, latency_log=None):
+        super().__init__(box, platform, latency_log)
         self.robot_keys, self.sim, self.input_mode = robot_keys, platform.sim, input_mode
         self.camera_period = 1.0 / camera_hz if camera_hz else None
         self.next_frame = 0.0
         self.next_state = 0.0
-        self.frame_pub = sensor_publisher(session, robot_keys.camera, bulky=True)
-        self.clock_pub = sensor_publisher(session, robot_keys.clock)
-        self.state_pub = sensor_publisher(session, robot_keys.state, bulky=True)
+        self.frame_pub = box.sensor_publisher(robot_keys.camera, bulky=True)
+        self.clock_pub = box.sensor_publisher(robot_keys.clock)
+        self.state_pub = box.sensor_publisher(robot_keys.state, bulky=True)
         self.handle_mask = np.zeros(18)
 
     def publish_input(self):
@@ -106,8 +103,8 @@ class AiboLoop(PlatformLoop):
         self.counts["resets"] += 1
         self.log.info("arena reset with seed %d, balls %s", msg.seed, msg.balls or "as seeded")
 
-    def status(self):
-        counters, state = super().status()
+    def report(self):
+        counters, state = super().report()
         state.update(sim_time=round(self.sim.sim_time, 3), ear_mode=self.sim.ear_mode or "")
         return counters, state
 
@@ -115,26 +112,22 @@ class AiboLoop(PlatformLoop):
 def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, command: str, input_mode: str,
          rate_hz: float, sim_hz: float, camera_hz: float, watchdog: float, max_ticks: int, gui: bool,
          latency_log: str | None = None, summary: str | None = None, command_from: str | None = None) -> int:
-    log = setup_logging("aibo", name)
-    stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
+    box, robot_keys = BoxRuntime(conf, InstanceKeys(instance), "aibo", name), RobotKeys(robot)
     inputs = "phase" if input_mode == "phase" else "joints"
-    with AiboPlatform(seed=seed, command=command, gui=gui, inputs=inputs) as aibo, zenoh.open(conf) as session:
-        loop = AiboLoop(session, keys, robot_keys, aibo, log, name, input_mode, camera_hz, latency_log)
+    with AiboPlatform(seed=seed, command=command, gui=gui, inputs=inputs) as aibo, box:
+        loop = AiboLoop(box, robot_keys, aibo, input_mode, camera_hz, latency_log)
         robot_spaces = encode(SpacesMessage(aibo.spaces.to_dict()))
-        held = [session.declare_subscriber(robot_keys.handle, inbox.callback("handle")),
-                session.declare_subscriber(robot_keys.arena, inbox.callback("arena")),
-                session.declare_queryable(robot_keys.spaces, inbox.query_callback("robot_spaces")),
-                session.liveliness().declare_token(keys.alive("aibo", name))]
+        box.subscribe(robot_keys.handle, "handle")
+        box.subscribe(robot_keys.arena, "arena")
+        box.queryable(robot_keys.spaces, "robot_spaces")
         handlers = {"handle": loop.on_handle, "arena": loop.on_arena,
                     "robot_spaces": lambda key, query: query.reply(robot_keys.spaces, robot_spaces)}
-        log.info("aibo %s: input %s, command %s, %s, camera %s Hz", robot, input_mode, command,
-                 f"{rate_hz} Hz" if rate_hz else "lockstep", camera_hz)
+        box.log.info("aibo %s: input %s, command %s, %s, camera %s Hz", robot, input_mode, command,
+                     f"{rate_hz} Hz" if rate_hz else "lockstep", camera_hz)
         # with the camera as input, perception owns dl/<i>/spaces (its input, our output)
-        spaces_key = "" if input_mode == "camera" else keys.spaces
-        run_ticks(loop, session, keys, inbox, stop, handlers, rate_hz, sim_hz, watchdog, max_ticks, spaces_key,
-                  command_from)
+        spaces_key = "" if input_mode == "camera" else box.keys.spaces
+        run_ticks(loop, handlers, rate_hz, sim_hz, watchdog, max_ticks, spaces_key, command_from)
         finish(loop, latency_log, summary)
-        del held
     return 0
 
 

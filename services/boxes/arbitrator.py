@@ -20,36 +20,35 @@ from bus_schema import Command, InstanceKeys, Input, PairBatch, Proposal, Select
 from services.arbitration.algorithm2 import decide, trains
 from services.arbitration.strategies import STRATEGIES, make_strategy
 from services.arbitration.ticks import TickTable
-from services.boxes.common import Membership, fetch_spaces
+from services.boxes.common import Membership
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher, lossless_publisher, sensor_publisher
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 
 MISSES_BEFORE_IGNORED = 5
 
 
 class Arbitrator:
-    """The service's state and handlers; `run` owns the session."""
+    """The box's state and handlers, on its runtime (the session, its members' events, its status)."""
 
-    def __init__(self, session, keys: InstanceKeys, spaces, strategy, deadline_s, learner, train_on, recent, log):
-        self.session, self.keys, self.log = session, keys, log
+    def __init__(self, box: BoxRuntime, spaces, strategy, deadline_s, learner, train_on, recent):
+        self.box, self.keys, self.log = box, box.keys, box.log
         self.dims = {"x": spaces.input.dims, "y": spaces.output.dims}
         self.output_space = spaces.output  # every command, and so every pair learned, is clipped to it
         self.choice = spaces.extra.get("choice") == "largest"  # one output per action: a teacher's is one-hot
         self.strategy, self.train_on = strategy, train_on
         self.table = TickTable(deadline_s)
-        self.members = Membership(keys)
+        self.members = Membership(self.keys)
         self.selected = learner
         self.epoch, self.seq = uuid.uuid4().hex[:12], 0
         self.recent: collections.deque[TrainingPair] = collections.deque(maxlen=recent)
         self.missed: collections.Counter[str] = collections.Counter()  # deadlines missed in a row, per member
         self.last_command = np.zeros(spaces.output.dims)
-        self.rejects = Rejects(log)
-        self.counts = collections.Counter()
-        self.status_due = False  # who is waited for changed: say so now, not at the next second
-        self.command_pub = sensor_publisher(session, keys.command)
-        self.train_pub = lossless_publisher(session, keys.train)
+        self.rejects, self.counts = box.rejects, box.counts
+        self.command_pub = box.sensor_publisher(self.keys.command)
+        self.train_pub = box.lossless_publisher(self.keys.train)
+        self.commanding = None  # declared once a platform hears our commands: platforms wait for it to tick
+        self.handlers = {"input": self.on_input, "proposal": self.on_proposal, "select": self.on_select}
 
     # --- membership -------------------------------------------------------------------------
     def active_learner(self) -> str | None:
@@ -118,7 +117,7 @@ class Arbitrator:
             self.counts["proposals"] += 1
             member = f"{parts[3]}/{parts[4]}"
             if self.missed.pop(member, 0) >= MISSES_BEFORE_IGNORED:  # it answers: waited for again
-                self.status_due = True
+                self.box.status.publish_soon()  # who is waited for changed: say so now, not in a second
             self.table.add_proposal(member, msg, now)
 
     def on_select(self, key, raw, now):
@@ -145,6 +144,28 @@ class Arbitrator:
         query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys,
                                                              masks)))
 
+    # --- the loop ---------------------------------------------------------------------------
+    def wait(self) -> float:
+        """How long the loop may wait for an event: until the oldest tick's deadline, at most 50 ms."""
+        deadline = self.table.next_deadline()
+        return 0.05 if deadline is None else min(0.05, max(0.0, deadline - time.monotonic()))
+
+    def handle(self, batch) -> None:
+        """One batch: each event handled, then any tick now complete or past its deadline decided."""
+        handlers = self.handlers
+        for tag, key, raw, kind in batch:
+            now = time.monotonic()
+            if tag == "alive":
+                self.on_alive(key, kind)
+            elif tag == "recent":
+                self.on_recent_query(raw)
+            else:
+                handlers[tag](key, raw, now)
+            self.decide_ready(now)
+        self.decide_ready(time.monotonic())
+        if self.commanding is None and self.command_pub.matching_status.matching:  # off the tick's path
+            self.commanding = self.box.token(self.keys.commanding(self.box.name))
+
     # --- deciding ---------------------------------------------------------------------------
     def decide_ready(self, now):
         expected = self.expected()
@@ -158,7 +179,7 @@ class Arbitrator:
                         self.log.warning("%s missed %d deadlines in a row: not waited for until it answers", member,
                                          MISSES_BEFORE_IGNORED)
                         self.counts["members_silenced"] += 1
-                        self.status_due = True
+                        self.box.status.publish_soon()
             teachers = self.speaking(entry, "teacher", "teaching")
             mine = f"learner/{learner}"
             learner_p = (mine, entry.proposals[mine]) if mine in entry.proposals else None
@@ -182,8 +203,8 @@ class Arbitrator:
         self.train_pub.put(encode(pair))
         self.counts["train_pairs"] += 1
 
-    def status(self) -> tuple[dict, dict]:
-        counters = dict(self.counts, rejected=self.rejects.total, late_proposals=self.table.late)
+    def report(self) -> tuple[dict, dict]:
+        counters = {"late_proposals": self.table.late}
         state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq,
                  "pending": len(self.table),
                  "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts),
@@ -194,46 +215,21 @@ class Arbitrator:
 def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: str = "teacher-first",
          unsure_below: float = 0.25, deadline_ms: float = 20.0, learner: str | None = None,
          train_on: str = "teacher", recent: int = 65536, strategy_params: dict | None = None) -> int:
-    log = setup_logging("arbitrator", name)
-    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
-    chooser = make_strategy(strategy, unsure_below=unsure_below, **(strategy_params or {}))
-    with zenoh.open(conf) as session:
-        spaces = fetch_spaces(session, keys, stop, log)
+    with BoxRuntime(conf, InstanceKeys(instance), "arbitrator", name) as box:
+        chooser = make_strategy(strategy, unsure_below=unsure_below, **(strategy_params or {}))
+        spaces = box.fetch_spaces()
         if spaces is None:
             return 0
-        arb = Arbitrator(session, keys, spaces, chooser, deadline_ms / 1000.0, learner, train_on, recent, log)
-        held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.liveliness().declare_subscriber(keys.alive_all, inbox.callback("alive"), history=True))
-        held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
-        held.append(session.declare_subscriber(keys.proposals, inbox.callback("proposal")))
-        held.append(session.declare_subscriber(keys.select_learner, inbox.callback("select")))
-        held.append(session.declare_queryable(keys.train_recent, inbox.query_callback("recent")))
-        status = StatusPublisher(session, keys.status("arbitrator", name), "arbitrator", name, inbox=inbox)
-        held.append(session.liveliness().declare_token(keys.alive("arbitrator", name)))
-        commanding = None  # declared once a platform hears our commands: platforms wait for it to tick
-        log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
-                 strategy, unsure_below)
-        handlers = {"input": arb.on_input, "proposal": arb.on_proposal, "select": arb.on_select}
-        while not stop:
-            if commanding is None and arb.command_pub.matching_status.matching:
-                commanding = session.liveliness().declare_token(keys.commanding(name))
-            now = time.monotonic()
-            deadline = arb.table.next_deadline()
-            wait = 0.05 if deadline is None else min(0.05, max(0.0, deadline - now))
-            for tag, key, raw, kind in inbox.drain(wait):
-                now = time.monotonic()
-                if tag == "alive":
-                    arb.on_alive(key, kind)
-                elif tag == "recent":
-                    arb.on_recent_query(raw)
-                else:
-                    handlers[tag](key, raw, now)
-                arb.decide_ready(now)
-            arb.decide_ready(time.monotonic())
-            if arb.status_due:
-                arb.status_due = False
-                status.publish_soon()
-            status.maybe_publish(arb.status)
+        arb = Arbitrator(box, spaces, chooser, deadline_ms / 1000.0, learner, train_on, recent)
+        box.subscribe_alive(box.keys.alive_all, "alive")
+        box.subscribe(box.keys.input, "input")
+        box.subscribe(box.keys.proposals, "proposal")
+        box.subscribe(box.keys.select_learner, "select")
+        box.queryable(box.keys.train_recent, "recent")
+        box.log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
+                     strategy, unsure_below)
+        for batch in box.batches(arb.wait, arb.report):
+            arb.handle(batch)
     return 0
 
 

@@ -26,19 +26,10 @@ import numpy as np
 import zenoh
 
 from bus_schema import Box, Command, InstanceKeys, Input, SpacesMessage, encode
-from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 from services.chaining import Easing, lower_spaces
-
-
-class SpacesAt:
-    """fetch_spaces asks `<key>`; a chain asks the upper instance's spaces and the consumer's."""
-
-    def __init__(self, key: str):
-        self.spaces = key
 
 
 def clip_counted(box: Box, values: np.ndarray, counts: collections.Counter, name: str) -> np.ndarray:
@@ -52,33 +43,31 @@ def clip_counted(box: Box, values: np.ndarray, counts: collections.Counter, name
 
 def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces: str, extra: str | None,
          clock: str = "upper", hold_s: float = 0.5, ease_s: float = 0.0) -> int:
-    log = setup_logging("chain", name)
-    stop, up, down, inbox = StopFlag(), InstanceKeys(upper), InstanceKeys(lower), Inbox()
-    rejects, counts = Rejects(log), collections.Counter()
-    with zenoh.open(conf) as session:
-        upper_spaces = fetch_spaces(session, up, stop, log)
-        consumer = fetch_spaces(session, SpacesAt(consumer_spaces), stop, log)
-        extra_spaces = fetch_spaces(session, InstanceKeys(extra), stop, log) if extra else None
+    up, down = InstanceKeys(upper), InstanceKeys(lower)
+    with BoxRuntime(conf, down, "chain", name) as box:  # its status and token in the lower instance
+        rejects, counts = box.rejects, box.counts
+        upper_spaces = box.fetch_spaces(up.spaces)
+        consumer = box.fetch_spaces(consumer_spaces)
+        extra_spaces = box.fetch_spaces(InstanceKeys(extra).spaces) if extra else None
         if upper_spaces is None or consumer is None or (extra and extra_spaces is None):
             return 0
         spaces = lower_spaces(upper_spaces, consumer, extra_spaces)
         payload = encode(SpacesMessage(spaces.to_dict()))
-        pub = sensor_publisher(session, down.input)
-        held = [session.declare_subscriber(up.command, inbox.callback("command")),
-                session.declare_queryable(down.spaces, inbox.query_callback("spaces")),
-                session.liveliness().declare_token(up.alive("platform", name)),
-                session.liveliness().declare_token(down.alive("chain", name))]
+        pub = box.sensor_publisher(down.input)
+        box.subscribe(up.command, "command")
+        box.queryable(down.spaces, "spaces")
+        box.token(up.alive("platform", name))  # the upper instance's platform
         if extra:
-            held.append(session.declare_subscriber(InstanceKeys(extra).input, inbox.callback("extra")))
-        status = StatusPublisher(session, down.status("chain", name), "chain", name, inbox=inbox)
+            box.subscribe(InstanceKeys(extra).input, "extra")
         latest_extra = np.zeros(extra_spaces.input.dims) if extra_spaces else np.zeros(0)
         n_up = upper_spaces.output.dims
         rest = (np.asarray(upper_spaces.output.low) + np.asarray(upper_spaces.output.high)) / 2.0
         latest_up, latest_up_at = rest, -np.inf
         eased, eased_at = Easing(rest, ease_s), time.monotonic()
-        log.info("chaining %s -> %s: %d inputs (%s)", upper, lower, spaces.input.dims, ", ".join(spaces.input.names))
-        while not stop:
-            for tag, key, raw, _ in inbox.drain(0.1):
+        box.log.info("chaining %s -> %s: %d inputs (%s)", upper, lower, spaces.input.dims,
+                     ", ".join(spaces.input.names))
+        for batch in box.batches(0.1, lambda: ({}, {"upper": upper, "lower": lower})):
+            for tag, key, raw, _ in batch:
                 if tag == "spaces":
                     raw.reply(down.spaces, payload)
                 elif tag == "extra":
@@ -104,8 +93,6 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
                     else:
                         pub.put(encode(Input(msg.tick, msg.stamp, np.concatenate([y, latest_extra]))))
                         counts["relayed"] += 1
-            status.maybe_publish(lambda: (dict(counts, rejected=rejects.total), {"upper": upper, "lower": lower}))
-        del held
     return 0
 
 

@@ -7,48 +7,45 @@ silent. With role 'default' it is Figure 1's default controller: always answerin
 from __future__ import annotations
 
 import argparse
-import collections
 
 import zenoh
 
 from bus_schema import InstanceKeys, Input, Proposal, TeachSwitch, encode
-from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 from services.params import parse_params
 from services.teachers import TEACHERS, make_teacher
 
 
 class Demonstrator:
-    """The box's state: a teacher plugin, switched by the teach key, answering the newest input. Every
-    declaration goes through `session`, so a fake one drives it in unit tests."""
+    """The box's state: a teacher plugin, switched by the teach key, answering the newest input. Its
+    role is its runtime's (teacher, or default); it declares through the runtime, so the fake bus drives it."""
 
-    def __init__(self, session, keys: InstanceKeys, spaces, plugin, name: str, role: str, log):
-        self.session, self.keys, self.plugin, self.name, self.role, self.log = session, keys, plugin, name, role, log
-        self.inbox, self.rejects, self.counts = Inbox(), Rejects(log), collections.Counter()
+    def __init__(self, box: BoxRuntime, spaces, plugin, teacher: str = ""):
+        self.box, self.keys, self.plugin, self.name, self.role = box, box.keys, plugin, box.name, box.role
+        self.teacher, self.log, self.rejects, self.counts = teacher, box.log, box.rejects, box.counts
         self.dims = {"x": spaces.input.dims}
-        self.pub = sensor_publisher(session, keys.proposal(role, name))
-        self.switches = session.declare_subscriber(keys.teach, self.inbox.callback("teach"))
+        self.pub = box.sensor_publisher(self.keys.proposal(self.role, self.name))
+        box.subscribe(self.keys.teach, "teach")
         self.teaching = self.listening = None
 
     def listen(self, on: bool) -> None:
         """A silent teacher does not even hear the inputs: no wake-up per tick for nothing."""
         if on and self.listening is None:
-            self.listening = self.session.declare_subscriber(self.keys.input, self.inbox.callback("input"))
+            self.listening = self.box.subscribe(self.keys.input, "input")
         elif not on and self.listening is not None:
-            self.listening.undeclare()
+            self.box.release(self.listening)
             self.listening = None
 
     def switch(self, on: bool) -> None:
         if on and self.teaching is None:
             # the token first: the arbitrator takes a teacher's proposals only while it holds one
-            self.teaching = self.session.liveliness().declare_token(self.keys.teaching(self.name))
+            self.teaching = self.box.token(self.keys.teaching(self.name))
             self.listen(True)
             self.log.info("teaching ON")
         elif not on and self.teaching is not None:
-            self.teaching.undeclare()
+            self.box.release(self.teaching)
             self.teaching = None
             self.listen(False)
             self.log.info("teaching OFF")
@@ -73,31 +70,21 @@ class Demonstrator:
             self.pub.put(encode(Proposal(newest.tick, f"{self.role}/{self.name}", y, float(confidence), mask)))
             self.counts["proposals"] += 1
 
-    def status(self) -> tuple[dict, dict]:
-        return dict(self.counts, rejected=self.rejects.total), {"teaching": self.teaching is not None}
+    def report(self) -> tuple[dict, dict]:
+        return {}, {"teaching": self.teaching is not None, "teacher": self.teacher}
 
 
 def main(conf: zenoh.Config, instance: str, teacher: str, params: dict, name: str, role: str = "teacher",
          start_on: bool = False) -> int:
-    log = setup_logging(role, name)
-    stop, keys = StopFlag(), InstanceKeys(instance)
-    with zenoh.open(conf) as session:
-        spaces = fetch_spaces(session, keys, stop, log)
+    with BoxRuntime(conf, InstanceKeys(instance), role, name) as box:
+        spaces = box.fetch_spaces()
         if spaces is None:
             return 0
-        box = Demonstrator(session, keys, spaces, make_teacher(teacher, spaces, **params), name, role, log)
-        alive = session.liveliness().declare_token(keys.alive(role, name))  # undeclared once unreferenced
-        status = StatusPublisher(session, keys.status(role, name), role, name, inbox=box.inbox)
-        box.listen(role == "default")
-        box.switch(start_on and role == "teacher")
-
-        def report():
-            counters, state = box.status()
-            return counters, dict(state, teacher=teacher)
-        while not stop:
-            box.handle(box.inbox.drain(0.1))
-            status.maybe_publish(report)
-        alive.undeclare()
+        demonstrator = Demonstrator(box, spaces, make_teacher(teacher, spaces, **params), teacher)
+        demonstrator.listen(role == "default")
+        demonstrator.switch(start_on and role == "teacher")
+        for batch in box.batches(0.1, demonstrator.report):
+            demonstrator.handle(batch)
     return 0
 
 

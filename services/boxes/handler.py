@@ -10,36 +10,28 @@ import zenoh
 
 from bus_schema import Clock, Handle, InstanceKeys, RobotKeys, encode
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 from services.platforms.aibo.handler import MIRRORING_DISTRACTORS, OTHER_16, Handler
 
 DISTRACTORS = {"mirroring": MIRRORING_DISTRACTORS, "all": OTHER_16, "none": ()}
 
 
 def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, tail: bool, distractors: str) -> int:
-    log = setup_logging("handler", name)
-    stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
-    hands = Handler(seed=seed, tail=tail, distractors=DISTRACTORS[distractors])
-    rejects, count = Rejects(log), 0
-    with zenoh.open(conf) as session:
-        pub = sensor_publisher(session, robot_keys.handle)
-        held = [session.declare_subscriber(robot_keys.clock, inbox.callback("clock")),
-                session.liveliness().declare_token(keys.alive("handler", name))]
-        status = StatusPublisher(session, keys.status("handler", name), "handler", name, inbox=inbox)
-        log.info("handling %s: tail %s, distractors %s (seed %d)", robot, tail, distractors, seed)
-        while not stop:
+    robot_keys, hands = RobotKeys(robot), Handler(seed=seed, tail=tail, distractors=DISTRACTORS[distractors])
+    with BoxRuntime(conf, InstanceKeys(instance), "handler", name) as box:
+        pub = box.sensor_publisher(robot_keys.handle)
+        box.subscribe(robot_keys.clock, "clock")
+        box.log.info("handling %s: tail %s, distractors %s (seed %d)", robot, tail, distractors, seed)
+        box.counts["handles"] = 0  # (in every status, from the first)
+        for batch in box.batches(0.1, lambda: ({}, {"distractors": distractors})):
             newest = None
-            for _, key, raw, _ in inbox.drain(0.1):
-                newest = decode_or_reject(Clock, raw, key, rejects) or newest
+            for _, key, raw, _ in batch:
+                newest = decode_or_reject(Clock, raw, key, box.rejects) or newest
             if newest is not None:
                 mask, q = hands.at(newest.sim_time)
                 pub.put(encode(Handle(mask.astype(float), q)))
-                count += 1
-            status.maybe_publish(lambda count=count: ({"handles": count, "rejected": rejects.total},
-                                                      {"distractors": distractors}))
-        del held
+                box.counts["handles"] += 1
     return 0
 
 

@@ -8,7 +8,6 @@ logs every pair to a file and replays it after a crash, so a restart forgets not
 from __future__ import annotations
 
 import argparse
-import collections
 import math
 import time
 from pathlib import Path
@@ -19,12 +18,10 @@ import zenoh
 from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, Snapshot, TrainingPair, decode,
                         encode)
 from services.arbitration.algorithm2 import learn_pair
-from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.inbox import decode_or_reject
 from services.bus.queries import ask_owner
+from services.bus.runtime import BoxRuntime
 from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
@@ -32,14 +29,36 @@ from services.params import parse_params
 
 
 class LearnerNode:
-    def __init__(self, session, keys, name, model, pairlog, log, output_space):
-        self.session, self.keys, self.name, self.model, self.pairs, self.log = session, keys, name, model, pairlog, log
+    """The box's state and handlers: one learner, its pair log and its place in the training epoch."""
+
+    def __init__(self, box: BoxRuntime, model, pairlog: PairLog, output_space):
+        self.box, self.session, self.keys, self.name, self.log = box, box.session, box.keys, box.name, box.log
+        self.model, self.pairs = model, pairlog
         self.output_space = output_space  # every proposal is clipped to it
         self.dims = {"x": model.n_in, "y": model.n_out, "mask": model.n_out}
+        self.input_dims = {"x": model.n_in}
         self.epoch, self.seq = "", 0
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
-        self.rejects, self.counts = Rejects(log), collections.Counter()
-        self.pub = sensor_publisher(session, keys.proposal("learner", name))
+        self.rejects, self.counts = box.rejects, box.counts
+        self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
+
+    def handle(self, batch) -> None:
+        """One batch: the newest input answered first (the tick is waiting; learning can follow), then
+        the pairs learned in order; queries answered as they come."""
+        newest, pairs = None, []
+        for tag, key, raw, _ in batch:
+            if tag == "input":
+                newest = decode_or_reject(Input, raw, key, self.rejects, self.input_dims) or newest
+            elif tag == "train":
+                pair = decode_or_reject(TrainingPair, raw, key, self.rejects, self.dims)
+                if pair is not None:
+                    pairs.append(pair)
+            else:
+                self.on_query(raw)
+        if newest is not None:
+            self.answer(newest)
+        for pair in pairs:
+            self.on_pair(pair)
 
     # --- learning ---------------------------------------------------------------------------
     def learn(self, x, y, mask) -> None:
@@ -193,9 +212,8 @@ class LearnerNode:
             n -= max(0, self.seq - int(upto))  # the rows learned after `upto`
         query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, *self.pairs.history(n))))
 
-    def status(self):
-        counters = dict(self.counts, rejected=self.rejects.total, seq=self.seq, pairs=len(self.pairs),
-                        upkeep_under_way=int(self.model.upkeep_under_way))
+    def report(self):
+        counters = {"seq": self.seq, "pairs": len(self.pairs), "upkeep_under_way": int(self.model.upkeep_under_way)}
         return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size),
                           "params": {k: v if isinstance(v, (int, float, str, bool)) else repr(v)
                                      for k, v in self.model.get_params().items()}}
@@ -223,53 +241,32 @@ def history_query_problem(params) -> str:
 
 def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: str = "learner", seed: int = 0,
          state_dir: str | None = None, warm_from: str | None = None) -> int:
-    log = setup_logging("learner", name)
-    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
-    with zenoh.open(conf) as session:
-        spaces = fetch_spaces(session, keys, stop, log)
+    with BoxRuntime(conf, InstanceKeys(instance), "learner", name) as box:
+        spaces = box.fetch_spaces()
         if spaces is None:
             return 0
         model = make_learner(learner, n_in=spaces.input.dims, n_out=spaces.output.dims, seed=seed, **params)
         compile_kernels(model)
         model.serve_live()
         pairlog = PairLog(model.n_in, model.n_out, Path(state_dir) / f"{name}.pairs" if state_dir else None)
-        node = LearnerNode(session, keys, name, model, pairlog, log, spaces.output)
-        # subscribe before warming: pairs published meanwhile wait in the inbox, none is missed
-        held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.declare_subscriber(keys.train, inbox.callback("train")))
+        node = LearnerNode(box, model, pairlog, spaces.output)
+        box.subscribe(box.keys.train, "train")  # before warming: pairs published meanwhile wait, none is missed
         try:
             saved = pairlog.replay_file()
         except PairLogError as err:
-            log.error("%s", err)
+            box.log.error("%s", err)
             return 1
         if saved:
             node.replay(saved)
-            log.info("replayed %d pairs from %s", len(saved), pairlog.path)
+            box.log.info("replayed %d pairs from %s", len(saved), pairlog.path)
         elif warm_from:
             node.warm_from(warm_from)
-        held.append(session.declare_subscriber(keys.input, inbox.callback("input")))
-        held.append(session.declare_queryable(keys.snapshot(name), inbox.query_callback("query")))
-        held.append(session.declare_queryable(keys.history(name), inbox.query_callback("query")))
-        status = StatusPublisher(session, keys.status("learner", name), "learner", name, inbox=inbox)
-        held.append(session.liveliness().declare_token(keys.alive("learner", name)))
-        log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
-        while not stop:
-            newest, pairs = None, []
-            for tag, key, raw, _ in inbox.drain(0.1):
-                if tag == "input":
-                    newest = decode_or_reject(Input, raw, key, node.rejects, {"x": model.n_in}) \
-                        or newest
-                elif tag == "train":
-                    pair = decode_or_reject(TrainingPair, raw, key, node.rejects, node.dims)
-                    if pair is not None:
-                        pairs.append(pair)
-                else:
-                    node.on_query(raw)
-            if newest is not None:  # answer first: the tick is waiting; learning can follow
-                node.answer(newest)
-            for pair in pairs:
-                node.on_pair(pair)
-            status.maybe_publish(node.status)
+        box.subscribe(box.keys.input, "input")
+        box.queryable(box.keys.snapshot(name), "query")
+        box.queryable(box.keys.history(name), "query")
+        box.log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
+        for batch in box.batches(0.1, node.report):
+            node.handle(batch)
         pairlog.close()
     return 0
 

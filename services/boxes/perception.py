@@ -8,17 +8,14 @@ legs: deploy/hierarchy.toml).
 from __future__ import annotations
 
 import argparse
-import collections
 import time
 
 import zenoh
 
 from bus_schema import Box, Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, encode
-from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 from services.perception.blobs import DEFAULT_COLOURS, BlobDetector
 from services.perception.jpeg import decode_rgb
 from services.perception.slots import BlobSlots
@@ -58,35 +55,36 @@ def output_box(robot_spaces: Spaces, output: str, robot: str) -> Box:
 
 def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict | None,
          layout: str = "colours", output: str = "robot") -> int:
-    log = setup_logging("perception", name)
-    stop, keys, robot_keys, inbox = StopFlag(), InstanceKeys(instance), RobotKeys(robot), Inbox()
+    keys, robot_keys = InstanceKeys(instance), RobotKeys(robot)
+    box = BoxRuntime(conf, keys, "perception", name)
     detector = BlobDetector(colours)
     # "slots": colour-blind slots, largest blob first, colour as one more input (services.perception.slots)
     slots = BlobSlots(detector) if layout == "slots" else None
     in_box = slots.box() if slots else detector.box()
-    rejects, counts = Rejects(log), collections.Counter()
-    with zenoh.open(conf) as session:
-        robot_spaces = fetch_spaces(session, robot_keys, stop, log)
+    rejects, counts = box.rejects, box.counts
+    with box:
+        robot_spaces = box.fetch_spaces(robot_keys.spaces)
         if robot_spaces is None:
             return 0
         try:
             out_box = output_box(robot_spaces, output, robot)
         except ValueError as err:
-            log.error("%s", err)
+            box.log.error("%s", err)
             return 2
         spaces = Spaces(in_box, out_box, {"perception": f"colour blobs ({layout})", "robot": robot})
         spaces_payload = encode(SpacesMessage(spaces.to_dict()))
-        pub = sensor_publisher(session, keys.input)
-        held = [session.declare_subscriber(robot_keys.camera, inbox.callback("frame")),
-                session.declare_queryable(keys.spaces, inbox.query_callback("spaces")),
-                session.liveliness().declare_token(keys.alive("perception", name))]
-        status = StatusPublisher(session, keys.status("perception", name), "perception", name, inbox=inbox)
+        pub = box.sensor_publisher(keys.input)
+        box.subscribe(robot_keys.camera, "frame")
+        box.queryable(keys.spaces, "spaces")
         busy = 0.0
-        log.info("blobs for %s -> %d inputs (%s)", ", ".join(detector.colours), spaces.input.dims,
-                 ", ".join(spaces.input.names))
-        while not stop:
+        box.log.info("blobs for %s -> %d inputs (%s)", ", ".join(detector.colours), spaces.input.dims,
+                     ", ".join(spaces.input.names))
+
+        def report():
+            return {}, {"ms_per_frame": round(1e3 * busy / max(1, counts["frames"]), 3)}
+        for batch in box.batches(0.1, report):
             newest = None
-            for tag, key, raw, _ in inbox.drain(0.1):
+            for tag, key, raw, _ in batch:
                 if tag == "spaces":
                     raw.reply(keys.spaces, spaces_payload)
                 else:
@@ -105,9 +103,6 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
                 pub.put(encode(Input(newest.tick, newest.stamp, x)))
                 busy += time.perf_counter() - started
                 counts["frames"] += 1
-            status.maybe_publish(lambda busy=busy: (dict(counts, rejected=rejects.total),
-                                                    {"ms_per_frame": round(1e3 * busy / max(1, counts["frames"]), 3)}))
-        del held
     return 0
 
 

@@ -17,11 +17,10 @@ import numpy as np
 import zenoh
 
 from bus_schema import Applied, Command, InstanceKeys, Input, SpacesMessage, encode
-from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.lifecycle import StopFlag, setup_logging
 from services.boxes.episodes import EpisodeReporter
-from services.bus.publishers import StatusPublisher, sensor_publisher
+from services.bus.config import add_bus_args, config_from_args
+from services.bus.inbox import decode_or_reject
+from services.bus.runtime import BoxRuntime
 from services.params import parse_params
 from services.platforms import PLATFORMS, make_platform
 
@@ -31,18 +30,17 @@ LATENCY_WINDOW_S = 10.0  # the status's latency percentiles: the commands of the
 
 
 class PlatformLoop:
-    """Ticks, commands, the watchdog and latency for one Platform; subclasses add streams."""
+    """Ticks, commands, the watchdog and latency for one Platform, on its box's runtime; subclasses add streams."""
 
-    role = "platform"
-
-    def __init__(self, session, keys, platform, log, latency_log=None, name="platform"):
-        self.keys, self.platform, self.log, self.name = keys, platform, log, name
+    def __init__(self, box: BoxRuntime, platform, latency_log=None):
+        self.box, self.keys, self.platform, self.log, self.name = box, box.keys, platform, box.log, box.name
         self.dims = platform.spaces.output.dims
-        self.input_pub = sensor_publisher(session, keys.input)
-        self.applied_pub = sensor_publisher(session, keys.applied)
-        self.rejects = Rejects(log)
-        self.counts = collections.Counter()
+        self.input_pub = box.sensor_publisher(self.keys.input)
+        self.applied_pub = box.sensor_publisher(self.keys.applied)
+        self.rejects, self.counts = box.rejects, box.counts
         self.tick = 0
+        self.due_at = 0.0  # (monotonic) when the next input goes out
+        self.after_tick_at: float | None = None  # the tick's other streams go out by then at the latest (after_tick)
         self.latest: Command | None = None
         self.latest_at = -1.0
         self.applied_tick = -1
@@ -54,7 +52,7 @@ class PlatformLoop:
         self.n_unanswered = 0
         self.mode = ""
         # a platform with a task's reward (gym) reports each step's outcome: the reward goes on its own keys
-        self.episodes = EpisodeReporter(session, keys) if callable(getattr(platform, "outcome", None)) else None
+        self.episodes = EpisodeReporter(box.session, box.keys) if callable(getattr(platform, "outcome", None)) else None
 
     def next_tick(self) -> int:
         """A new tick: the oldest one leaves the answer window."""
@@ -141,11 +139,19 @@ class PlatformLoop:
                 "last_unanswered": (list(self.last_unanswered) + in_window)[-1000:],
                 "held": self.counts["held"], "applied": self.counts["applied"], "rejected": self.rejects.total}
 
-    def status(self):
+    def wait(self) -> float:
+        wake = self.due_at if self.after_tick_at is None else min(self.due_at, self.after_tick_at)
+        return max(0.0, wake - time.monotonic())
+
+    def finish_tick(self) -> None:
+        self.after_tick()
+        self.after_tick_at = None
+
+    def report(self):
         since = time.monotonic() - LATENCY_WINDOW_S
         lat = np.array([ms for at, ms in self.recent_latency if at >= since] or [0.0]) * 1e3
         # lost: ticks that left the answer window unanswered
-        counters = dict(self.counts, rejected=self.rejects.total, tick=self.tick, lost_ticks=self.n_unanswered)
+        counters = {"tick": self.tick, "lost_ticks": self.n_unanswered}
         if hasattr(self.platform, "clipped_inputs"):  # observations beyond the declared bounds (gym)
             counters["clipped_inputs"] = self.platform.clipped_inputs
         state = {"mode": self.mode, **(self.episodes.state() if self.episodes else {}),
@@ -154,49 +160,46 @@ class PlatformLoop:
         return counters, state
 
 
-def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, rate_hz: float, sim_hz: float,
-              watchdog: float, max_ticks: int, spaces_key: str | None = None, command_from: str | None = None):
+def run_ticks(loop: PlatformLoop, handlers: dict, rate_hz: float, sim_hz: float, watchdog: float,
+              max_ticks: int, spaces_key: str | None = None, command_from: str | None = None) -> None:
     """The platform's clock: ticks at `rate_hz` (0: lockstep, the next tick as soon as this one is
     answered), applies commands, holds under the watchdog, and serves the spaces query."""
+    box = loop.box
     spaces_payload = encode(SpacesMessage(loop.platform.spaces.to_dict()))
-    spaces_key = keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
+    spaces_key = box.keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
     # chained instances: the robot obeys the lowest instance's commands (dl/<lower>/command) and
     # waits for that instance's arbitrator
-    commander = InstanceKeys(command_from) if command_from else keys
-    held = [session.declare_subscriber(commander.command, inbox.callback("command")),
-            session.liveliness().declare_subscriber(f"{commander.prefix}/alive/commanding/*",
-                                                    inbox.callback("arbitrator"), history=True)]
+    commander = InstanceKeys(command_from) if command_from else box.keys
+    box.subscribe(commander.command, "command")
+    box.subscribe_alive(f"{commander.prefix}/alive/commanding/*", "arbitrator")
     if spaces_key:
-        held.append(session.declare_queryable(spaces_key, inbox.query_callback("spaces")))
-    status = StatusPublisher(session, keys.status(loop.role, loop.name), loop.role, loop.name, inbox=inbox)
+        box.queryable(spaces_key, "spaces")
     period = 1.0 / rate_hz if rate_hz else None
     dt = period or 1.0 / sim_hz
-    next_tick = time.monotonic()
+    loop.due_at = time.monotonic()
     # our command subscription reaches the arbitrator a moment after we declare it: the first tick
     # waits for a commanding arbitrator and for that moment, so no command goes where we are not yet
-    settled_at = next_tick + SUBSCRIPTION_SETTLE_S
+    settled_at = loop.due_at + SUBSCRIPTION_SETTLE_S
     arbitrators: set[str] = set()
-    after_tick_at = None  # the tick's own work is done by then at the latest (after_tick)
-    while not stop:
+    for batch in box.batches(loop.wait, loop.report):  # the tick first; the batch waits until the next is due
         now = time.monotonic()
         waiting = loop.tick == 0 and (not arbitrators or now < settled_at)  # hold still, lose no tick
         if waiting:
-            next_tick = now + 0.05
+            loop.due_at = now + 0.05
         answered = loop.latest is not None and loop.latest.tick >= loop.tick
-        if max_ticks and loop.tick >= max_ticks and (answered or now >= next_tick + watchdog):
+        if max_ticks and loop.tick >= max_ticks and (answered or now >= loop.due_at + watchdog):
             break  # the last tick is answered (or will never be): done
-        if not waiting and (now >= next_tick or (period is None and answered)):
-            if after_tick_at is not None:  # never skipped: a tick's streams go out before the next tick
-                loop.after_tick()
+        if not waiting and (now >= loop.due_at or (period is None and answered)):
+            if loop.after_tick_at is not None:  # never skipped: a tick's streams go out before the next tick
+                loop.finish_tick()
             if loop.tick:
                 loop.advance(dt, watchdog)
             if not (max_ticks and loop.tick >= max_ticks):
                 loop.publish_input()
-            after_tick_at = time.monotonic() + (period or watchdog) / 2  # from the input, not the physics before it
+            loop.after_tick_at = time.monotonic() + (period or watchdog) / 2  # from the input, not the physics before
             # rate mode keeps a steady cadence (no burst after a stall); lockstep waits for the answer
-            next_tick = max(next_tick + period, now) if period else now + watchdog
-        wake = next_tick if after_tick_at is None else min(next_tick, after_tick_at)
-        for tag, key, raw, kind in inbox.drain(max(0.0, wake - time.monotonic())):
+            loop.due_at = max(loop.due_at + period, now) if period else now + watchdog
+        for tag, key, raw, kind in batch:
             if tag == "spaces":
                 raw.reply(spaces_key, spaces_payload)
             elif tag == "arbitrator":
@@ -205,12 +208,9 @@ def run_ticks(loop: PlatformLoop, session, keys, inbox, stop, handlers: dict, ra
                 loop.on_command(key, raw)
             else:
                 handlers[tag](key, raw)
-        if after_tick_at is not None and (time.monotonic() >= after_tick_at or
-                                          (loop.latest is not None and loop.latest.tick >= loop.tick)):
-            loop.after_tick()
-            after_tick_at = None
-        status.maybe_publish(loop.status)
-    return held
+        if loop.after_tick_at is not None and (time.monotonic() >= loop.after_tick_at or
+                                               (loop.latest is not None and loop.latest.tick >= loop.tick)):
+            loop.finish_tick()
 
 
 def finish(loop: PlatformLoop, latency_log: str | None, summary: str | None) -> None:
@@ -224,16 +224,13 @@ def finish(loop: PlatformLoop, latency_log: str | None, summary: str | None) -> 
 def main(conf: zenoh.Config, instance: str, platform: str, params: dict, name: str = "platform",
          rate_hz: float = 30.0, sim_hz: float = 30.0, watchdog: float = 0.5, max_ticks: int = 0,
          latency_log: str | None = None, summary: str | None = None, command_from: str | None = None) -> int:
-    log = setup_logging("platform", name)
-    stop, keys, inbox = StopFlag(), InstanceKeys(instance), Inbox()
-    with make_platform(platform, **params) as robot, zenoh.open(conf) as session:
-        loop = PlatformLoop(session, keys, robot, log, latency_log, name=name)
-        token = session.liveliness().declare_token(keys.alive("platform", name))
-        log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
-                 robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
-        run_ticks(loop, session, keys, inbox, stop, {}, rate_hz, sim_hz, watchdog, max_ticks, command_from=command_from)
+    box = BoxRuntime(conf, InstanceKeys(instance), "platform", name)  # (stopped by a signal while the robot is made)
+    with make_platform(platform, **params) as robot, box:
+        loop = PlatformLoop(box, robot, latency_log)
+        box.log.info("%s platform: %d inputs, %d outputs, %s", platform, robot.spaces.input.dims,
+                     robot.spaces.output.dims, f"{rate_hz} Hz" if rate_hz else "lockstep")
+        run_ticks(loop, {}, rate_hz, sim_hz, watchdog, max_ticks, command_from=command_from)
         finish(loop, latency_log, summary)
-        token.undeclare()
     return 0
 
 

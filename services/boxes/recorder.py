@@ -25,9 +25,9 @@ import zenoh
 from bus_schema import InstanceKeys, RecordSwitch, RobotKeys, SchemaError, Spaces, SpacesMessage, decode
 from bus_schema.catalog import payload_of
 from services.bus.config import add_bus_args, config_from_args
-from services.bus.inbox import Inbox, Rejects
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher
+from services.bus.inbox import Rejects
+from services.bus.lifecycle import setup_logging
+from services.bus.runtime import BoxRuntime
 from services.recording.reader import is_finished, repair
 from services.recording.writer import McapTooOld, RunWriter, check_mcap, file_index
 
@@ -35,12 +35,13 @@ RETRY_S = 5.0  # after a write failed, how long before a new file is tried
 
 
 class Recording:
-    """The recorder's state, driven by samples (bus-free: tests hand it samples and fail its files)."""
+    """The recorder's state, driven by samples (bus-free: tests hand it samples and fail its files). Its
+    rejects and counters are its box's (the status says them), or its own without one."""
 
-    def __init__(self, writer: RunWriter, log, name: str = "recorder"):
+    def __init__(self, writer: RunWriter, log, name: str = "recorder", box: BoxRuntime | None = None):
         self.writer, self.log, self.name = writer, log, name
         self.paused = False  # a person paused it (dl/<i>/record): samples are counted, not written
-        self.rejects, self.counts = Rejects(log), collections.Counter()
+        self.rejects, self.counts = (box.rejects, box.counts) if box else (Rejects(log), collections.Counter())
         self.error, self._retry_at = "", 0.0
         self.dims: dict[str, dict] = {}  # dl/<instance> -> the vector lengths its spaces give (once known)
 
@@ -115,9 +116,8 @@ class Recording:
         self.error, self._retry_at = error, time.monotonic() + RETRY_S
         self.counts["write_errors"] += 1
 
-    def status(self):
-        counters = dict(self.counts, rejected=self.rejects.total, files=self.writer.files_written,
-                        file_bytes=self.writer.bytes_in_file)
+    def report(self):
+        counters = {"files": self.writer.files_written, "file_bytes": self.writer.bytes_in_file}
         return counters, {"folder": str(self.writer.folder), "file": str(self.writer.path or ""), "error": self.error,
                           "recording": not self.paused}
 
@@ -134,13 +134,13 @@ def repair_unfinished(folder: Path, name: str, log) -> None:
                 log.error("could not repair %s: %s", path, err)
 
 
-def ask_spaces(session, keys: list[str], inbox: Inbox) -> None:
+def ask_spaces(box: BoxRuntime, keys: list[str]) -> None:
     """Ask each spaces queryable; answers come into the inbox as ('spaces', key, payload)."""
     def on_reply(reply):
         if reply.ok is not None:
-            inbox.put(("spaces", str(reply.ok.key_expr), reply.ok.payload.to_bytes(), None))
+            box.inbox.put(("spaces", str(reply.ok.key_expr), reply.ok.payload.to_bytes(), None))
     for key in keys:
-        session.get(key, on_reply, timeout=2.0)
+        box.session.get(key, on_reply, timeout=2.0)
 
 
 def take(recording: Recording, items) -> None:
@@ -153,48 +153,38 @@ def take(recording: Recording, items) -> None:
 
 def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str, out: Path, rotate_mb: float,
          rotate_min: float, flush_s: float, inbox_mb: float = 256.0) -> int:
-    log = setup_logging("recorder", name)
     try:
         check_mcap()
-    except McapTooOld as err:
-        log.error("%s", err)
+    except McapTooOld as err:  # said before any session, signal handler or file
+        setup_logging("recorder", name).error("%s", err)
         return 2
-    stop, inbox = StopFlag(), Inbox(int(inbox_mb * 2**20))
-    repair_unfinished(out, name, log)
+    box = BoxRuntime(conf, InstanceKeys(instances[0]), "recorder", name, inbox_bytes=int(inbox_mb * 2**20))
+    repair_unfinished(out, name, box.log)
     writer = RunWriter(out, name, int(rotate_mb * 1e6), rotate_min * 60.0, flush_s)
     writer.add_metadata("run", {"instances": ",".join(instances), "robots": ",".join(robots),
                                 "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%SZ",
                                                                                        time.gmtime())})
-    recording = Recording(writer, log, name)
+    recording = Recording(writer, box.log, name, box)
     spaces_keys = [InstanceKeys(i).spaces for i in instances] + [RobotKeys(r).spaces for r in robots]
-    status_key = InstanceKeys(instances[0]).status("recorder", name)
-
-    def on_sample(sample: zenoh.Sample) -> None:
-        inbox.put(("sample", str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
-
-    with zenoh.open(conf) as session:
-        held = [session.declare_subscriber(f"{InstanceKeys(i).prefix}/**", on_sample) for i in instances]
-        held += [session.declare_subscriber(f"{RobotKeys(r).prefix}/**", on_sample) for r in robots]
-        held.append(session.liveliness().declare_token(InstanceKeys(instances[0]).alive("recorder", name)))
-        status = StatusPublisher(session, status_key, "recorder", name, inbox=inbox)
-        log.info("recording %s into %s", ", ".join([f"dl/{i}" for i in instances] + [f"robot/{r}" for r in robots]),
-                 out)
+    with box:
+        for prefix in [InstanceKeys(i).prefix for i in instances] + [RobotKeys(r).prefix for r in robots]:
+            box.subscribe(f"{prefix}/**", "sample", stamped=True)  # stamped on arrival: the log time
+        box.log.info("recording %s into %s", ", ".join([f"dl/{i}" for i in instances] + [f"robot/{r}" for r in robots]),
+                     out)
         asked = 0.0
-        while not stop:
+        for batch in box.batches(0.05, recording.report):
             if time.monotonic() - asked > 2.0 and any(f"spaces {k.rsplit('/', 1)[0]}" not in writer.metadata
                                                       for k in spaces_keys):
-                ask_spaces(session, spaces_keys, inbox)
+                ask_spaces(box, spaces_keys)
                 asked = time.monotonic()
-            take(recording, inbox.drain(0.05))
+            take(recording, batch)
             recording.upkeep()
-            status.maybe_publish(recording.status)
-        take(recording, itertools.islice(inbox.drain(0.0), inbox.waiting))  # what came before the stop, too
+        take(recording, itertools.islice(box.inbox.drain(0.0), box.inbox.waiting))  # what came before the stop
         try:
             writer.close()
         except OSError as err:
             recording.failed(err)
-        del held
-    log.info("stopped: %d samples recorded in %d files", recording.counts["recorded"], writer.files_written)
+    box.log.info("stopped: %d samples recorded in %d files", recording.counts["recorded"], writer.files_written)
     return 0
 
 

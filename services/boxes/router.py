@@ -8,7 +8,8 @@ import zenoh
 
 from bus_schema import ROUTER
 from services.bus.config import DEFAULT_ROUTER, zenoh_config
-from services.bus.lifecycle import StopFlag, setup_logging
+from services.bus.lifecycle import setup_logging
+from services.bus.runtime import BoxRuntime
 
 
 CANNOT_LISTEN = "the router cannot listen on"  # what it says when it cannot start (its supervisor reads it)
@@ -16,18 +17,19 @@ ROUTING = "routing on"  # what it says once it listens
 
 
 def main(listen: list[str], connect: list[str] | None = None, token: str = ROUTER) -> int:
-    log = setup_logging("router", "router")
-    stop = StopFlag()
+    log = setup_logging("router", "router")  # first: securing its config may log
+    # no instance: no status; its token (its supervisor's router_token()) says it is up
+    conf = zenoh_config(listen=listen, connect=connect, mode="router", tell_refusals=True)
+    box = BoxRuntime(conf, None, "router", "router", token=token, log=log)
     try:
-        session = zenoh.open(zenoh_config(listen=listen, connect=connect, mode="router", tell_refusals=True))
+        box.open()
     except zenoh.ZError as err:  # a port another program holds, a mistyped endpoint
-        log.error("%s %s: %s", CANNOT_LISTEN, ", ".join(listen), str(err).split(" at /")[0])
+        box.log.error("%s %s: %s", CANNOT_LISTEN, ", ".join(listen), str(err).split(" at /")[0])
         return 2
-    with session:
-        held = []  # declarations live as long as these references (a dropped token is undeclared)
-        held.append(session.liveliness().declare_token(token))  # its supervisor's router_token()
-        log.info("%s %s%s", ROUTING, ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
-        while not stop:
+    with box:
+        box.announce()
+        box.log.info("%s %s%s", ROUTING, ", ".join(listen), f", linked to {', '.join(connect)}" if connect else "")
+        while not box.stop:
             time.sleep(0.2)
     return 0
 

@@ -18,10 +18,8 @@ from pathlib import Path
 import zenoh
 
 from bus_schema import InstanceKeys, check_name
-from services.boxes.common import fetch_spaces
 from services.bus.config import add_bus_args, config_from_args, own_profile
-from services.bus.lifecycle import StopFlag, setup_logging
-from services.bus.publishers import StatusPublisher
+from services.bus.runtime import BoxRuntime
 from services.own_identities import forget_page, note_page
 from services.security import is_loopback
 from services.ui.bridge import FRAME_HEADER, Bridge
@@ -34,13 +32,13 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
          tls: ssl.SSLContext | None = None, fingerprint: str = "", secured: bool = False) -> int:
     """`secured`: the bus lets in identities only, so the page does too: on loopback as well, its socket
     needs the token, which this user finds in their own folder (services/own_identities.py)."""
-    log = setup_logging("ui", name)
-    stop, keys, done = StopFlag(), InstanceKeys(instance), threading.Event()
+    box, done = BoxRuntime(conf, InstanceKeys(instance), "ui", name), threading.Event()
+    log = box.log
     token = None if is_loopback(f"tcp/{host}:{port}") and not secured else secrets.token_urlsafe(18)
     if token and tls is None:
         log.warning("--plain-http off loopback: the token and all the page sends cross the network in clear")
-    with zenoh.open(conf) as session:
-        spaces = fetch_spaces(session, keys, stop, log)
+    with box:
+        spaces = box.fetch_spaces()
         if spaces is None:
             return 0
         out = spaces.output
@@ -50,12 +48,11 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
                  "inputs": {"names": list(spaces.input.names)}, "frame_header_bytes": FRAME_HEADER.size,
                  "teleop_refresh_ms": round(TELEOP_REFRESH_S * 1000)}
         server = UiServer(None, hello, host, port, token, log, tls)
-        bridge = Bridge(session, instance, robot, person, spaces, server.emit, log)
+        bridge = Bridge(box, robot, person, spaces, server.emit)
         server.bridge, bridge.server_counts = bridge, server.counts
-        alive = session.liveliness().declare_token(keys.alive("ui", name))
-        bridge.status = StatusPublisher(session, keys.status("ui", name), "ui", name, inbox=bridge.inbox)
         bridge.declare()  # here, not on the bus thread (Bridge.declare says why)
-        bus = threading.Thread(target=bridge.run, args=(done,), name="bus", daemon=True)
+        box.announce()
+        bus = threading.Thread(target=bridge.run, name="bus", daemon=True)
         bus.start()
 
         def listening(port_now: int) -> None:
@@ -72,11 +69,12 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
                       file=sys.stderr, flush=True)
 
         async def serve():
-            watcher = asyncio.create_task(_watch(stop, done))
+            watcher = asyncio.create_task(_watch(box.stop, done))
             try:
                 await server.serve(done, listening)
             finally:
-                done.set()  # the bus thread ends while the loop still runs
+                done.set()
+                box.stop.set()  # the bus thread ends while the loop still runs (it emits into it)
                 watcher.cancel()
         try:
             asyncio.run(serve())
@@ -85,13 +83,13 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
             return 2
         finally:
             done.set()
+            box.stop.set()  # the bus thread's loop ends
             bus.join(2.0)
-            alive.undeclare()
             forget_page(bridge.url)
     return 0
 
 
-async def _watch(stop: StopFlag, done: threading.Event) -> None:
+async def _watch(stop, done: threading.Event) -> None:
     while not stop and not done.is_set():
         await asyncio.sleep(0.1)
     done.set()

@@ -51,6 +51,17 @@ class Inbox:
             offer((tag, str(sample.key_expr), raw, sample.kind), len(raw))
         return on_sample
 
+    def stamped_callback(self, tag: str):
+        """As `callback`, with the arrival time (time.time_ns()) where the sample's kind goes: the
+        recorder's log time, taken on arrival, not when its thread gets to the sample."""
+        _not_on_a_daemon_thread()
+        offer, now_ns = self._offer, time.time_ns
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            raw = sample.payload.to_bytes()
+            offer((tag, str(sample.key_expr), raw, now_ns()), len(raw))
+        return on_sample
+
     def query_callback(self, tag: str):
         """Queries are answered by the service thread, so the callback only hands them over."""
         _not_on_a_daemon_thread()

@@ -16,12 +16,10 @@ HOST = os.environ.get("DOGGED_HOST") or socket.gethostname()  # the machine a se
 class StatusPublisher:
     """Publishes a Status once a second (latest-only: a lost one is replaced by the next)."""
 
-    def __init__(self, session: zenoh.Session, key: str, role: str, name: str, period: float = 1.0,
-                 inbox=None):
+    def __init__(self, session: zenoh.Session, key: str, role: str, name: str, period: float = 1.0):
         self._pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP,
                                               priority=zenoh.Priority.BACKGROUND)
         self.role, self.name, self.period, self._next = role, name, period, 0.0
-        self._inbox = inbox  # its drops are counted in every status as inbox_dropped
         self._previous: tuple[float, dict] | None = None
 
     def publish_soon(self) -> None:
@@ -36,8 +34,6 @@ class StatusPublisher:
             return
         self._next = now + self.period
         counters, state = report()
-        if self._inbox is not None:
-            counters = {**counters, "inbox_dropped": self._inbox.dropped}
         rates = {}
         if self._previous is not None:
             then, before = self._previous

@@ -114,8 +114,7 @@ def snapshot_main(argv: list[str]) -> int:
 
 def snapshot_learner(args) -> str:
     from bus_schema import InstanceKeys, SchemaError, Snapshot, decode
-    from services.boxes.common import fetch_spaces
-    from services.bus.queries import ask_owner
+    from services.bus.queries import ask_owner, fetch_spaces
     from services.learners import LEARNERS, save_student
     from services.learners.base import SnapshotError
     from services.supervisor.commands import _session
@@ -124,7 +123,7 @@ def snapshot_learner(args) -> str:
         payload, problem = ask_owner(session, keys.snapshot(args.name), 30.0)
         if payload is None:
             raise ExportError(f"learner {args.name} of dl/{args.instance} gave no snapshot: {problem}")
-        spaces = fetch_spaces(session, keys, False, logging.getLogger("dogged snapshot"), timeout=10.0)
+        spaces = fetch_spaces(session, keys.spaces, False, logging.getLogger("dogged snapshot"), timeout=10.0)
     if spaces is None:
         raise ExportError(f"the platform of dl/{args.instance} did not say its spaces within 10 s")
     try:

@@ -1,4 +1,4 @@
-"""The UI's side of the bus: one thread, one Zenoh session, as every box has.
+"""The UI's side of the bus: one thread, on the ui box's runtime (its session, inbox and status).
 
 It listens (commands, proposals, status and liveliness of every service, the robot's camera, the
 instance's inputs) and keeps a view the page is sent ten times a second; it acts for the
@@ -10,7 +10,6 @@ not block (the server hands it to its event loop).
 from __future__ import annotations
 
 import collections
-import logging
 import math
 import re
 import struct
@@ -20,12 +19,12 @@ import time
 import numpy as np
 import zenoh
 
-from bus_schema import (ArenaReset, Command, Episode, Frame, InstanceKeys, Input, Proposal, RecordSwitch, Reward,
+from bus_schema import (ArenaReset, Command, Episode, Frame, Input, Proposal, RecordSwitch, Reward,
                         RobotKeys, Spaces, Status, TeachSwitch, encode, is_name)
 from bus_schema.keys import EVERY_ALIVE, EVERY_STATUS
-from services.bus.inbox import Inbox, Rejects, decode_or_reject
-from services.bus.publishers import lossless_publisher
+from services.bus.inbox import decode_or_reject
 from services.bus.control import ask_supervisor, running_profile
+from services.bus.runtime import BoxRuntime
 from services.ui.teleop import Teleop
 
 VIEW_PERIOD_S = 0.1  # the page's view of the system, ten times a second
@@ -37,15 +36,14 @@ _RATE = re.compile(r"^[a-z0-9_]{1,40}$")  # a counter's name, as the page shows 
 
 
 class Bridge:
-    def __init__(self, session: zenoh.Session, instance: str, robot: str, person: str, spaces: Spaces, emit,
-                 log: logging.Logger):
-        self.session, self.keys, self.robot = session, InstanceKeys(instance), RobotKeys(robot)
-        self.spaces, self.emit, self.log = spaces, emit, log
-        self.inbox, self.rejects, self.counts = Inbox(), Rejects(log), collections.Counter()
-        self.teleop = Teleop(session, self.keys, person, spaces.output, log)
-        self.teach_pub = lossless_publisher(session, self.keys.teach)
-        self.arena_pub = lossless_publisher(session, self.robot.arena)
-        self.record_pub = lossless_publisher(session, self.keys.record)
+    def __init__(self, box: BoxRuntime, robot: str, person: str, spaces: Spaces, emit):
+        self.box, self.session, self.keys, self.robot = box, box.session, box.keys, RobotKeys(robot)
+        self.spaces, self.emit, self.log = spaces, emit, box.log
+        self.inbox, self.rejects, self.counts = box.inbox, box.rejects, box.counts
+        self.teleop = Teleop(box.session, self.keys, person, spaces.output, box.log)
+        self.teach_pub = box.lossless_publisher(self.keys.teach)
+        self.arena_pub = box.lossless_publisher(self.robot.arena)
+        self.record_pub = box.lossless_publisher(self.keys.record)
         self.latest: dict = {}  # the newest command, as the page shows it
         self.task: dict = {}  # a task's reward (gym): the episode under way and the last ones ended
         self.learner_y: collections.OrderedDict[int, np.ndarray] = collections.OrderedDict()
@@ -53,49 +51,39 @@ class Bridge:
         self.services: dict[str, dict] = {}  # "instance/role/name" -> alive, rates, state
         self.t0, self._next_point, self._next_view = time.monotonic(), 0.0, 0.0
         self._half_range = np.maximum((np.asarray(spaces.output.high) - np.asarray(spaces.output.low)) / 2, 1e-12)
-        self._held = []
-        self.status = None  # a StatusPublisher, once the box has one
         self.url = ""  # where the page is served, once it is
         self.server_counts = lambda: {}  # the server's own (pages open, requests refused), for the status
 
     # --- wiring ---------------------------------------------------------------------------------
     def declare(self) -> None:
-        """Called on the main thread, before `run`'s daemon thread starts (Inbox.callback refuses a
-        daemon thread, and says why)."""
-        s, cb = self.session, self.inbox.callback
-        self._held = [s.declare_subscriber(self.keys.command, cb("command")),
-                      s.declare_subscriber(self.keys.proposal("learner", "*"), cb("learner")),
-                      s.declare_subscriber(self.keys.input, cb("input")),
-                      s.declare_subscriber(EVERY_STATUS, cb("status")),
-                      s.declare_subscriber(self.robot.camera, cb("frame")),
-                      s.declare_subscriber(self.keys.reward, cb("reward")),
-                      s.declare_subscriber(self.keys.episode, cb("episode")),
-                      s.liveliness().declare_subscriber(EVERY_ALIVE, cb("alive"), history=True)]
+        """Called on the main thread, before `run`'s daemon thread starts (the runtime refuses another
+        thread, and says why)."""
+        for key, tag in ((self.keys.command, "command"), (self.keys.proposal("learner", "*"), "learner"),
+                         (self.keys.input, "input"), (EVERY_STATUS, "status"), (self.robot.camera, "frame"),
+                         (self.keys.reward, "reward"), (self.keys.episode, "episode")):
+            self.box.subscribe(key, tag)
+        self.box.subscribe_alive(EVERY_ALIVE, "alive")
 
     def request(self, op: str, fields: dict, reply) -> None:
         """From the server's thread: a checked page request; `reply(text, ok)` answers that page."""
         self.inbox.put(("page", op, (fields, reply), None))
 
-    def run(self, stop: threading.Event) -> None:
+    def run(self) -> None:
+        """The bus thread's loop, until the box is stopped (its declarations end with the runtime)."""
         handlers = {"command": self.on_command, "learner": self.on_learner, "input": self.on_input,
                     "status": self.on_status, "frame": self.on_frame, "alive": self.on_alive,
                     "reward": self.on_reward, "episode": self.on_episode}
         try:
-            while not stop.is_set():
-                for tag, key, raw, kind in self.inbox.drain(0.02):
+            for batch in self.box.batches(0.02, self.report):
+                for tag, key, raw, kind in batch:
                     if tag == "page":
                         self.on_page(key, *raw)
                     else:
                         handlers[tag](key, raw, kind)
                 self.teleop.expire()
                 self.maybe_view()
-                if self.status is not None:
-                    self.status.maybe_publish(self.report)
-        finally:  # however it ends: the person's teaching is let go, no callback comes after
+        finally:  # however it ends: the person's teaching is let go
             self.teleop.let_go()
-            for held in self._held:
-                held.undeclare()
-            self._held = []
 
     # --- what the bus says ------------------------------------------------------------------------
     def on_command(self, key, raw, _):
@@ -206,8 +194,7 @@ class Bridge:
         reply(problem, False) if answer is None else reply(answer.text, answer.ok)
 
     def report(self) -> tuple[dict, dict]:
-        return (dict(self.counts, **self.server_counts(), rejected=self.rejects.total,
-                     teleop_proposals=self.teleop.proposals),
+        return (dict(self.server_counts(), teleop_proposals=self.teleop.proposals),
                 {"url": self.url, "person": self.teleop.person, "teleoperating": self.teleop.token is not None})
 
     # --- the page's view ------------------------------------------------------------------------------
