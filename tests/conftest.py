@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from services.own_identities import HOME_ENV
+from tests.fast_tier import pytest_addoption, pytest_collection_modifyitems, pytest_configure  # noqa: F401  (hooks)
 from tests.harness import REPO, dogged, free_port, stop
 
 COMPILE_EVERY_LEARNER = ("import services; from services.learners import LEARNERS, compile_kernels, make_learner; "

@@ -92,6 +92,7 @@ def dogged(*argv: str) -> subprocess.CompletedProcess:
                           timeout=60)
 
 
+@pytest.mark.live
 def test_the_real_cli_hands_connect_before_run_to_the_box():
     """Before the fix: "dogged: error: unrecognized arguments: demonstrator --teacher nosuch"."""
     out = dogged("--connect", ENDPOINT, "run", "demonstrator", "--teacher", "nosuch")
@@ -99,6 +100,7 @@ def test_the_real_cli_hands_connect_before_run_to_the_box():
     assert "dogged run demonstrator: error: argument --teacher: invalid choice: 'nosuch'" in out.stderr
 
 
+@pytest.mark.live
 def test_the_real_cli_hands_connect_before_ui_to_the_page():
     """Before the fix: AttributeError: module 'services.supervisor.commands' has no attribute 'ui'."""
     out = dogged("--connect", ENDPOINT, "ui", "--http", "nowhere")

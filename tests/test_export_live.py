@@ -24,6 +24,8 @@ from services.recording.runs import load_run
 from tests.harness import REPO, Probe, dogged, dogged_ok, free_port, stop
 from tests.test_supervisor import ps
 
+pytestmark = pytest.mark.live
+
 GYM_PROFILE = """
 [profile]
 name = "exportgym"

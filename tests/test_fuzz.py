@@ -6,6 +6,8 @@ import pytest
 from services.experiments.fuzz import run_fuzz
 from tests.harness import free_port
 
+pytestmark = pytest.mark.live
+
 
 @pytest.fixture(scope="module")
 def fuzz(tmp_path_factory):

@@ -13,7 +13,7 @@ from services.experiments.hosts import (BRAIN_LINK, LOSSY_DEADLINE_MS, ROBOT, Ho
 from services.experiments.mirroring import ERROR_BOUND
 from services.netlab.lab import available
 
-pytestmark = pytest.mark.skipif(bool(available()), reason=available() or "")
+pytestmark = [pytest.mark.live, pytest.mark.skipif(bool(available()), reason=available() or "")]
 
 
 @pytest.fixture(scope="module")

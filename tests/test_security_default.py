@@ -17,6 +17,8 @@ from services.own_identities import home, identities_dir, person
 from tests.harness import REPO, dogged, free_port, wait_until
 from tests.test_supervisor import PROFILE, ps
 
+pytestmark = pytest.mark.live
+
 NOBODY = 65534  # Debian's nobody: another user of this machine, with no home
 
 

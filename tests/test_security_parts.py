@@ -83,6 +83,7 @@ def replies(pending) -> dict[str, list[bytes]]:
     return {key: [r.ok.payload.to_bytes() for r in handler if r.ok is not None] for key, handler in pending.items()}
 
 
+@pytest.mark.live
 @pytest.mark.parametrize("role", ROLES)
 def test_each_role_says_its_part_and_no_more(bus, role):
     endpoint, directory, by = bus

@@ -14,7 +14,7 @@ from services.own_identities import page_address
 from services.ui.headless import open_page
 from tests.harness import Probe, free_port, needs_chromium, wait_until
 
-pytestmark = needs_chromium
+pytestmark = [pytest.mark.live, needs_chromium]
 UNSURE_BELOW = 0.25  # deploy/ballseek.toml's arbitrator's (its default): below, the student asks
 
 

@@ -4,6 +4,8 @@ student alone seeks the pink ball. deploy/ballseek.toml live, the page in headle
 import time
 from collections import Counter
 
+import pytest
+
 from bus_schema import SpacesMessage, Spaces, TrainingPair, decode
 from services.bus.queries import ask_owner
 from services.demo.live import decoded
@@ -13,7 +15,7 @@ from services.own_identities import page_address
 from services.ui.headless import open_page
 from tests.harness import free_port, needs_chromium
 
-pytestmark = needs_chromium
+pytestmark = [pytest.mark.live, needs_chromium]
 
 RATE_HZ = 15.0  # deploy/ballseek.toml's
 TEACH_S, EPISODES, EPISODE_S = 60.0, 10, 30.0  # as the demo's pink episodes
