@@ -33,7 +33,7 @@ test: $(STAMP) chromium
 	$(VENV)/bin/pytest -q -rs
 
 # the fast tier, after each change: ruff and every test that starts no process and takes a second at most
-# (tests/fast_tier.py: a test of the tier that starts a process, or takes over 5 s, fails); under a minute
+# (tests/fast_tier.py: a test of the tier that starts a process, or uses over 5 s of CPU, fails); under a minute
 check: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest -q --fast-tier --durations=5

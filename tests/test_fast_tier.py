@@ -35,12 +35,20 @@ def test_one_that_catches_the_refusal_fails_too(pytester):
     result.stdout.fnmatch_lines(["*started a process or a Zenoh session (subprocess.Popen*"])
 
 
-def test_one_over_the_ceiling_fails_and_says_to_mark_it_slow(pytester, monkeypatch):
+def test_one_over_the_cpu_ceiling_fails_and_says_to_mark_it_slow_one_that_waits_does_not(pytester, monkeypatch):
     monkeypatch.setattr(fast_tier, "CEILING_S", 0.05)
-    pytester.makepyfile("import time\ndef test_it():\n    time.sleep(0.1)\n")
+    pytester.makepyfile("""
+        import time
+        def test_waits():
+            time.sleep(0.2)
+        def test_computes():
+            started = time.process_time()
+            while time.process_time() - started < 0.1:
+                pass
+    """)
     result = pytester.runpytest_inprocess(*TIER)
-    result.assert_outcomes(failed=1)
-    result.stdout.fnmatch_lines(["*test_it is in make check's fast tier but took 0.1 s*mark it slow*"])
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines(["*test_computes is in make check's fast tier but used 0.1 s of CPU*mark it slow*"])
 
 
 def test_live_and_slow_tests_and_those_asking_for_a_router_are_left_out_of_the_tier_only(pytester):
