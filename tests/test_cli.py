@@ -1,5 +1,6 @@
 """`dogged`'s global flags (--connect, --profile, --security, --identity) mean the same before the verb and
-after it, in both orders the README shows (issue 30): parsed by the real parsers, nothing started."""
+after it, in both orders docs/security.md and docs/hosts.md show (issue 30): parsed by the real parsers,
+nothing started."""
 import os
 import subprocess
 import sys
