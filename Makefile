@@ -1,4 +1,4 @@
-# The two commands of the README. Each sets itself up: a .venv with the project and its tools.
+# The two commands of the README, and the fast tier. Each sets itself up: a .venv with the project and its tools.
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 STAMP := $(VENV)/.installed
@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 export DOGGED_CHROMIUM ?= /usr/bin/chromium
 USER_ID ?= $(shell id -u)
 
-.PHONY: demo test chromium bench clean lerobot-check
+.PHONY: demo test check chromium bench clean lerobot-check
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "dogged needs Python 3.11 (pybullet 3.2.7 ships wheels for 3.11 only); set PYTHON=/path/to/python3.11")'
@@ -31,6 +31,12 @@ chromium:
 test: $(STAMP) chromium
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest -q -rs
+
+# the fast tier, after each change: ruff and every test that starts no process and takes a second at most
+# (tests/fast_tier.py: a test of the tier that starts a process, or uses over 5 s of CPU, fails); under a minute
+check: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/pytest -q --fast-tier --durations=5
 
 # The exported datasets read by LeRobot's own reader (tests/test_export_live.py; make test skips that part):
 # lerobot-dataset imports torch and torchvision (about 6 GB here) and decodes video with torchcodec, which

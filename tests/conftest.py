@@ -9,6 +9,7 @@ import pytest
 
 from rigs.harness import REPO, dogged, free_port, stop
 from services.own_identities import HOME_ENV
+from tests.fast_tier import pytest_addoption, pytest_collection_modifyitems, pytest_configure  # noqa: F401  (hooks)
 
 COMPILE_EVERY_LEARNER = ("import services; from services.learners import LEARNERS, compile_kernels, make_learner; "
                          "[compile_kernels(make_learner(name, 2, 1)) for name in LEARNERS]")

@@ -24,6 +24,7 @@ def test_joint_names_in_agreed_order():
     assert JOINT_LIMITS.shape == (18, 2) and np.all(JOINT_LIMITS[:, 0] < JOINT_LIMITS[:, 1])
 
 
+@pytest.mark.live
 def test_names_import_without_pybullet():
     code = "import sys, services.platforms.aibo as a; assert len(a.JOINT_NAMES) == 18; print('pybullet' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

@@ -42,6 +42,7 @@ def test_turn_command_turns_45_degrees_in_ten_seconds(direction):
         assert lowest > 0.9
 
 
+@pytest.mark.slow
 def test_two_minutes_of_random_commands_without_falling():
     rng = np.random.default_rng(0)
     with AiboSim(seed=1) as sim:

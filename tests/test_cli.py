@@ -1,5 +1,6 @@
 """`dogged`'s global flags (--connect, --profile, --security, --identity) mean the same before the verb and
-after it, in both orders the README shows (issue 30): parsed by the real parsers, nothing started."""
+after it, in both orders docs/security.md and docs/hosts.md show (issue 30): parsed by the real parsers,
+nothing started."""
 import os
 import subprocess
 import sys
@@ -92,6 +93,7 @@ def dogged(*argv: str) -> subprocess.CompletedProcess:
                           timeout=60)
 
 
+@pytest.mark.live
 def test_the_real_cli_hands_connect_before_run_to_the_box():
     """Before the fix: "dogged: error: unrecognized arguments: demonstrator --teacher nosuch"."""
     out = dogged("--connect", ENDPOINT, "run", "demonstrator", "--teacher", "nosuch")
@@ -99,6 +101,7 @@ def test_the_real_cli_hands_connect_before_run_to_the_box():
     assert "dogged run demonstrator: error: argument --teacher: invalid choice: 'nosuch'" in out.stderr
 
 
+@pytest.mark.live
 def test_the_real_cli_hands_connect_before_ui_to_the_page():
     """Before the fix: AttributeError: module 'services.supervisor.commands' has no attribute 'ui'."""
     out = dogged("--connect", ENDPOINT, "ui", "--http", "nowhere")

@@ -1,9 +1,12 @@
 """The paper's experiments, shortened, with real processes: the learned behaviour is asserted."""
 import numpy as np
+import pytest
 
 from rigs.harness import free_port
 from rigs.live.mirroring import RATE, start_mirroring, student_error
 from services.demo.ballseek import run_ballseek_live
+
+pytestmark = pytest.mark.live
 
 
 def endpoint():

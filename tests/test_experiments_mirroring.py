@@ -36,6 +36,7 @@ def test_a_partial_teacher_sets_its_axis_and_the_student_the_rest():
     assert decision.y[HEAD_PAN] == 0.4 and decision.y[HEAD_TILT] == student_y[HEAD_TILT]
 
 
+@pytest.mark.slow
 def test_student_mirrors_a_held_out_tail_after_a_few_seconds_of_teaching():
     untaught = make_learner("lwpr", 18, 18, seed=3)
     before = mirroring.held_out_error(untaught, seed=3, seconds=3.0)

@@ -45,6 +45,7 @@ def test_probability_out_of_range_is_refused():
         ScriptedUser(answer_probability=1.5)
 
 
+@pytest.mark.slow
 def test_in_the_loop_an_untaught_robot_asks_and_the_user_answers():
     """Ball seeking in one process: the lesson is scheduled at 10 s. Untaught, the robot is unsure
     from its first tick; a user who never answers leaves it asking until 10 s, one who always
@@ -68,6 +69,7 @@ def test_in_the_loop_an_untaught_robot_asks_and_the_user_answers():
     assert 5.0 + 2.0 * (asked - 1) <= taught <= 5.0 + 2.0 * asked
 
 
+@pytest.mark.slow
 def test_asked_about_the_orange_ball_a_person_who_answers_corrects_it():
     """Paper V.B and Fig. 4d, in one process: taught with pink only, the student asks for teaching
     whenever the orange ball is in view (and not with pink); a person who teaches only when asked

@@ -24,6 +24,8 @@ from services.recording.reader import iter_samples, read_metadata, spaces_in
 from services.recording.runs import load_run
 from tests.test_supervisor import ps
 
+pytestmark = pytest.mark.live
+
 GYM_PROFILE = """
 [profile]
 name = "exportgym"

@@ -5,6 +5,8 @@ import pytest
 from rigs.faults import run_faults
 from rigs.harness import free_port
 
+pytestmark = pytest.mark.live
+
 
 @pytest.fixture(scope="module")
 def faults(tmp_path_factory):

@@ -6,6 +6,8 @@ import pytest
 from rigs.fuzz import run_fuzz
 from rigs.harness import free_port
 
+pytestmark = pytest.mark.live
+
 
 @pytest.fixture(scope="module")
 def fuzz(tmp_path_factory):

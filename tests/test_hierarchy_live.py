@@ -3,8 +3,12 @@ at once for 90 s (their hand-coded teachers on while balls are put down), then b
 the learned seeking over the learned gait reaches the pink ball in at least 2 of 3 episodes."""
 from collections import Counter
 
+import pytest
+
 from rigs.harness import free_port
 from rigs.live.hierarchy import TwoLevelStage, seek_alone, start_hierarchy, teach_both
+
+pytestmark = pytest.mark.live
 
 TEACH_S = 90.0
 

@@ -13,7 +13,7 @@ from rigs.hosts import (BRAIN_LINK, LOSSY_DEADLINE_MS, ROBOT, Hosts, Link, brain
 from rigs.netlab.lab import available
 from services.experiments.mirroring import ERROR_BOUND
 
-pytestmark = pytest.mark.skipif(bool(available()), reason=available() or "")
+pytestmark = [pytest.mark.live, pytest.mark.skipif(bool(available()), reason=available() or "")]
 
 
 @pytest.fixture(scope="module")

@@ -1,9 +1,13 @@
 """Hot-swap learners during a 200 Hz run: no tick unanswered, no training pair lost (counted)."""
 import json
 
+import pytest
+
 from rigs.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port
 from services.waiting import poll
 from tests.test_supervisor import ps, wait
+
+pytestmark = pytest.mark.live
 
 TICKS = 6000  # 30 s at 200 Hz
 

@@ -22,6 +22,7 @@ def taught(task, seconds=40.0, kind="trajectory"):
     return model, xs
 
 
+@pytest.mark.slow
 def test_relevance_picks_the_inputs_the_teaching_depends_on():
     task = draw_task(3, *UNIT, relevant=(2, 2), taught=(2, 2))
     model, xs = taught(task)
@@ -30,6 +31,7 @@ def test_relevance_picks_the_inputs_the_teaching_depends_on():
     assert relevance[list(task.relevant)].min() > 10 * ignored.max(), (task.relevant, relevance.round(3))
 
 
+@pytest.mark.slow
 def test_far_from_the_teaching_it_is_unsure_and_holds_to_the_taught_range():
     task = draw_task(4, *UNIT, relevant=(2, 2), taught=(2, 2))
     model, xs = taught(task)
@@ -110,6 +112,7 @@ def test_an_input_that_only_jittered_while_taught_does_not_throw_the_answer_off_
     assert np.sqrt(np.mean(error ** 2)) < 0.02
 
 
+@pytest.mark.live
 def test_served_live_a_fit_runs_aside_and_the_last_one_sees_all_the_teaching():
     """serve_live: fits in the fitter's process; teaching during a fit is fitted next, so once the
     teaching stops and the fits land, the model is the one a synchronous learner would have."""
@@ -159,6 +162,7 @@ def children_of(pid: int) -> list[int]:
     return found
 
 
+@pytest.mark.live
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
 def test_the_fitting_processes_go_when_their_learner_is_killed():
     """Served live, fits run in processes of their own (issue 34); killed, the learner's process must not leave

@@ -10,6 +10,7 @@ from services.learners import make_learner
 from services.learners.kernel_cache import drop_stale_numba_cache
 
 
+@pytest.mark.slow
 def test_interval_is_finite_on_data_and_infinite_without_support():
     model = make_learner("lwpr", 2, 1, init_D=25.0)
     xs, ys = cross_training(300)

@@ -31,6 +31,7 @@ def lesson(seed: int):
     return xs, ys, masks, rng.uniform(-1.5, 1.5, (40, 4))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1])
 def test_outputs_held_still_share_a_gp_and_answer_as_one_gp_each(seed):
     xs, ys, masks, queries = lesson(seed)
@@ -90,11 +91,13 @@ def test_holding_is_only_for_a_gp_taught_one_value():
 CHECKS = [c for c in ALL_CHECKS if c.__name__ != "check_confidence_doubts_a_query_off_the_span"]
 
 
+@pytest.mark.slow  # the learners' conformance suite once more, 8 s: make check runs it once, over every learner
 @pytest.mark.parametrize("check", CHECKS, ids=[c.__name__ for c in CHECKS])
 def test_per_output_over_the_gp_passes_the_conformance_checks(check):
     check(lambda seed=0: PerOutput(3, 2, seed=seed, base="gp", params={"memory": 100, "fit_points": 64}))
 
 
+@pytest.mark.live
 def test_an_output_released_while_served_live_fits_aside_too():
     """A copy of a GP (holding) keeps fitting where the GP did: a released output served live must not fit in
     the answer path (its snapshot-like copy would, by default)."""

@@ -3,12 +3,15 @@ import numpy as np
 import pytest
 
 from services.learners import LEARNERS, LearnerInputError, UnknownLearnerError, make_learner
-from services.learners.checks import ALL_CHECKS, unit_test_factory
+from services.learners.checks import ALL_CHECKS, check_more_teaching_is_not_worse_closed_loop, unit_test_factory
 
-CASES = [(name, check) for name in LEARNERS for check in ALL_CHECKS]
+SLOW_CHECKS = {check_more_teaching_is_not_worse_closed_loop}  # a closed-loop lesson each: the GP's takes 11 s
+CASES = [pytest.param(name, check, id=f"{name}:{check.__name__}",
+                      marks=pytest.mark.slow if check in SLOW_CHECKS else ())
+         for name in LEARNERS for check in ALL_CHECKS]
 
 
-@pytest.mark.parametrize("name,check", CASES, ids=[f"{n}:{c.__name__}" for n, c in CASES])
+@pytest.mark.parametrize("name,check", CASES)
 def test_conformance(name, check):
     check(unit_test_factory(LEARNERS[name]))
 

@@ -3,6 +3,8 @@ they run."""
 import subprocess
 import sys
 
+import pytest
+
 from rigs.harness import REPO
 from rigs.headless import missing_chromium
 
@@ -18,6 +20,7 @@ def test_a_chromium_there_is_used(tmp_path):
     assert missing_chromium(tmp_path / "chromium") is None
 
 
+@pytest.mark.live
 def test_the_pages_tests_skip_with_that_reason_when_chromium_is_missing(tmp_path):
     env = {"DOGGED_CHROMIUM": str(tmp_path / "absent"), "PATH": "/usr/bin:/bin"}
     done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",

@@ -9,6 +9,7 @@ import time
 from collections import Counter
 
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 
 from bus_schema import SchemaError, decode
@@ -18,6 +19,8 @@ from services.recording.reader import is_finished, iter_samples, run_files
 from services.recording.runs import load_run
 from services.replay.replay import replay, schedule
 from tests.test_supervisor import ps, wait
+
+pytestmark = pytest.mark.live
 
 PROFILE = """
 [profile]

@@ -60,6 +60,7 @@ def test_quasi_batch_refits_once_the_teaching_span_ends(run):
     assert np.allclose(batch.y[TAUGHT + 1:], online.y[TAUGHT + 1:])  # one fit on every pair = online knn
 
 
+@pytest.mark.live
 def test_dogged_replay_prints_the_table_and_writes_the_plot(run, tmp_path):
     out = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(run), "--learner", "lwpr", "--learner",
                           "knn:k=3", "--learner", "sogp", "--teacher", "sine", "--plot", str(tmp_path / "c.png"),
@@ -75,6 +76,7 @@ def test_dogged_replay_prints_the_table_and_writes_the_plot(run, tmp_path):
     assert rows["knn:k=3"]["size"] == TAUGHT
 
 
+@pytest.mark.live
 @pytest.mark.parametrize("args, message", [
     (["--learner", "nonsense"], "no learner 'nonsense'"),
     (["--learner", "lwpr:bogus=1"], "unknown hyper-parameter 'bogus'"),
@@ -87,6 +89,7 @@ def test_bad_arguments_are_clear_errors(run, args, message):
     assert out.returncode == 2 and message in out.stderr, out.stderr
 
 
+@pytest.mark.live
 def test_a_folder_without_recordings_is_a_clear_error(tmp_path):
     out = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(tmp_path)], cwd=REPO,
                          capture_output=True, text=True, timeout=120)

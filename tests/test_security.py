@@ -74,6 +74,7 @@ FORBIDDEN_TO_A_TEACHER = ("dl/main/command", "dl/main/input", "dl/main/train", "
                           "dl/main/teach", "dl/main/proposal/learner/learner", "robot/aibo/state")
 
 
+@pytest.mark.live
 def test_a_teacher_cannot_publish_what_only_others_may(secured):
     endpoint, directory, _ = secured
     assert heard(endpoint, directory, "teacher.alice", puts(*FORBIDDEN_TO_A_TEACHER,
@@ -81,6 +82,7 @@ def test_a_teacher_cannot_publish_what_only_others_may(secured):
         == ["dl/main/proposal/teacher/alice"]
 
 
+@pytest.mark.live
 def test_the_owners_can(secured):
     endpoint, directory, _ = secured
     assert heard(endpoint, directory, "arbitrator.arbitrator", puts("dl/main/command", "dl/main/train",
@@ -110,6 +112,7 @@ def answers(endpoint, directory, key: str, owner: str, impostor: str, asker: str
     return sorted(replies)
 
 
+@pytest.mark.live
 @pytest.mark.parametrize("key,owner,asker", [("dl/main/spaces", "platform.aibo", "operator.bob"),
                                              ("dl/main/learner/learner/snapshot", "learner.learner", "learner.learner"),
                                              ("dl/main/learner/learner/history", "learner.learner", "learner.learner"),
@@ -120,6 +123,7 @@ def test_only_the_owner_answers_the_queries_a_deployment_depends_on(secured, key
     assert answers(endpoint, directory, key, owner, "teacher.alice", asker) == [b"owner"]
 
 
+@pytest.mark.live
 def test_a_teacher_cannot_call_the_supervisor(secured):
     endpoint, directory, _ = secured
     with zenoh.open(session_config(endpoint, directory, "supervisor.main")) as supervisor:
@@ -134,6 +138,7 @@ def test_a_teacher_cannot_call_the_supervisor(secured):
     assert called == ["dogged/supervisor/main/ps"]
 
 
+@pytest.mark.live
 def test_a_process_without_a_certificate_of_this_ca_cannot_join(secured):
     endpoint, _, stranger = secured
     with pytest.raises(zenoh.ZError):
@@ -190,6 +195,7 @@ def robot_hears(secured, monkeypatch, speak) -> list[bytes]:
     return got
 
 
+@pytest.mark.live
 def test_peers_linked_directly_enforce_the_rules_themselves(secured, monkeypatch):
     """Services join as peers that link straight to each other over TLS (a hop fewer than through the
     router); a teacher's peer linked straight to the robot's still cannot command it."""
@@ -213,6 +219,7 @@ def overheard(endpoint, directory, listener: str) -> list[str]:
     return sorted(set(got))
 
 
+@pytest.mark.live
 def test_a_certificate_made_after_the_router_started_gets_nothing(secured):
     """Signed by the same CA, but after the router read its roster: it matches no subject, so nothing it
     says passes and nothing reaches it; the router's log tells the refusal, with its name."""
@@ -231,6 +238,7 @@ def test_a_certificate_made_after_the_router_started_gets_nothing(secured):
     assert {"teacher.eve", "operator.mallory"} <= set(refusals.counts())
 
 
+@pytest.mark.live
 def test_a_router_certificate_not_the_routers_own_gets_nothing(secured):
     """The rules never denied the router role: any `router.*` certificate could say anything."""
     endpoint, directory, _ = secured

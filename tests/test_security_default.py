@@ -17,6 +17,8 @@ from services.certificates import make_certs
 from services.own_identities import home, identities_dir, person
 from tests.test_supervisor import PROFILE, ps
 
+pytestmark = pytest.mark.live
+
 NOBODY = 65534  # Debian's nobody: another user of this machine, with no home
 
 

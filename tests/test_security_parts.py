@@ -1,7 +1,7 @@
 """Each role says its part and no more (issue 30). For every role, a session with its certificate puts on,
 holds a token on, asks and answers every key some role may (services/permissions.py, each '*' a name),
 and a few wildcards, through a real router enforcing the allow-list: what passes is exactly what that
-role's part includes. The README and services/security.py show the same table."""
+role's part includes. docs/security.md and services/security.py show the same table."""
 import itertools
 import re
 import time
@@ -83,6 +83,7 @@ def replies(pending) -> dict[str, list[bytes]]:
     return {key: [r.ok.payload.to_bytes() for r in handler if r.ok is not None] for key, handler in pending.items()}
 
 
+@pytest.mark.live
 @pytest.mark.parametrize("role", ROLES)
 def test_each_role_says_its_part_and_no_more(bus, role):
     endpoint, directory, by = bus
@@ -135,13 +136,9 @@ def table(text: str) -> dict[str, dict[str, set[str]]]:
     return said
 
 
-@pytest.mark.parametrize("where", ["README.md", "services/security.py"])
-def test_the_readme_and_the_docstring_show_the_allow_list(where):
-    text = (REPO / where).read_text()
-    if where == "README.md":
-        text = text.split("## Who may say what", 1)[1].split("\n## ", 1)[0]
-    else:
-        text = services.security.__doc__
+@pytest.mark.parametrize("where", ["docs/security.md", "services/security.py"])
+def test_the_security_page_and_the_docstring_show_the_allow_list(where):
+    text = (REPO / where).read_text() if where.endswith(".md") else services.security.__doc__
     shown = table(text)
     assert {role: shown.get(role, {}) for role in ROLES} == {
         role: {kind: set(keys) for kind, keys in PARTS[role].kinds()} for role in ROLES}

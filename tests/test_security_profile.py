@@ -95,6 +95,7 @@ def cli(*args, identity=None, certs=None, timeout=60):
                           timeout=timeout, env=env)
 
 
+@pytest.mark.live
 def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
     certs, endpoint, page_port = tmp_path / "certs", f"tls/127.0.0.1:{free_port()}", free_port()
     profile = write_profile(tmp_path, endpoint, certs, page_port)
@@ -165,6 +166,7 @@ def forge(endpoint: str, certs, forger: str) -> collections.Counter:
     return +heard
 
 
+@pytest.mark.live
 def test_a_certificate_made_after_up_gets_nothing_and_ps_counts_the_refusals(tmp_path):
     """Issue 30: the same CA signed teacher.eve, operator.mallory and handler.mallet (a role no service has)
     after `dogged up`: the router and every peer know only the roster read at `up`, so nothing they say
@@ -218,12 +220,14 @@ def test_each_service_is_handed_its_own_folder_and_the_roster_read_at_up(tmp_pat
     assert "teacher.eve" in Supervisor(profile, echo=False).roster  # a restarted profile admits it
 
 
+@pytest.mark.live
 def test_up_refuses_a_router_beyond_loopback_without_security(tmp_path):
     profile = write_profile(tmp_path, f"tcp/0.0.0.0:{free_port()}")
     out = cli("up", str(profile), "--quiet", timeout=30)
     assert out.returncode == 2 and "beyond this machine" in out.stderr and "--insecure" in out.stderr
 
 
+@pytest.mark.live
 def test_up_refuses_to_join_another_machine_in_the_clear(tmp_path):
     profile = write_profile(tmp_path, f"tcp/127.0.0.1:{free_port()}")
     out = cli("up", str(profile), "--join", "tcp/192.0.2.7:7447", "--quiet", timeout=30)

@@ -11,6 +11,8 @@ import zenoh
 from rigs.harness import wait_until
 from tests.test_security import robot_hears, secured_router, session_config
 
+pytestmark = pytest.mark.live
+
 BEYOND_A_TEACHER = ("dl/**", "dl/main/**", "**", "dl/*/*", "dl/main/*", "dl/main/command/**")
 
 

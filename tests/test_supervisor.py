@@ -8,6 +8,8 @@ import pytest
 
 from rigs.harness import REPO, Probe, dogged, dogged_ok, free_port, wait_until
 
+pytestmark = pytest.mark.live
+
 PROFILE = """
 [profile]
 name = "suptest"

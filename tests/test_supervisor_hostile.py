@@ -3,12 +3,15 @@ a swap to no learner and forged statuses are answered, refused or bounded; the d
 import json
 import time
 
+import pytest
 import zenoh
 
 from bus_schema import ControlReply, Status, decode, encode, supervisor_key
 from rigs.harness import dogged, dogged_ok, free_port, wait_until
 from services.bus.config import zenoh_config
 from tests.test_supervisor import PROFILE, ps
+
+pytestmark = pytest.mark.live
 
 
 def ask(session, verb: str, parameters: str = "") -> ControlReply:

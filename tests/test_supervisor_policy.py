@@ -6,6 +6,7 @@ import logging
 import sys
 import time
 
+import pytest
 import zenoh
 
 from bus_schema import ControlReply, decode, supervisor_key
@@ -13,6 +14,8 @@ from services.supervisor.profile import Profile, ServiceSpec
 from services.supervisor.supervisor import Supervisor
 from services.supervisor.verbs import MAX_DEFERRED
 from services.supervisor.swap import _kept_args, swap_learner
+
+pytestmark = pytest.mark.live
 
 SLEEPS = [sys.executable, "-c", "import time; time.sleep(60)"]
 

@@ -8,8 +8,12 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from rigs.harness import REPO, Probe, dogged, dogged_ok, free_port, stop, wait_until
 from services.own_identities import secured_endpoint
+
+pytestmark = pytest.mark.live
 
 PROFILE = """
 [profile]

@@ -14,7 +14,7 @@ from rigs.headless import open_page
 from rigs.live.page import start_ballseek_with_page, teach_click_to_bus
 from services.own_identities import page_address
 
-pytestmark = needs_chromium
+pytestmark = [pytest.mark.live, needs_chromium]
 UNSURE_BELOW = 0.25  # deploy/ballseek.toml's arbitrator's (its default): below, the student asks
 
 

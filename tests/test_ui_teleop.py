@@ -4,6 +4,8 @@ student alone seeks the pink ball. deploy/ballseek.toml live, the page in headle
 import time
 from collections import Counter
 
+import pytest
+
 from bus_schema import SpacesMessage, Spaces, TrainingPair, decode
 from rigs.harness import free_port, needs_chromium
 from rigs.headless import open_page
@@ -13,7 +15,7 @@ from services.demo.live import decoded
 from services.experiments import ballseek_protocol as protocol
 from services.own_identities import page_address
 
-pytestmark = needs_chromium
+pytestmark = [pytest.mark.live, needs_chromium]
 
 RATE_HZ = 15.0  # deploy/ballseek.toml's
 TEACH_S, EPISODES, EPISODE_S = 60.0, 10, 30.0  # as the demo's pink episodes

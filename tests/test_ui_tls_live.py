@@ -11,6 +11,8 @@ import pytest
 from rigs.harness import REPO, dogged, free_port, stop, wait_until
 from tests.test_ui_protocol import exchange, served_fingerprint, tls_client
 
+pytestmark = pytest.mark.live
+
 
 def test_off_loopback_the_page_is_served_over_https_with_the_printed_token_and_fingerprint(router, tmp_path):
     port = free_port()

@@ -1,12 +1,16 @@
 """A task nobody designed, taught live (issue 11): a teacher of a random curved map from the tail's
 two joints onto the head's two joints, on the mirroring profile as real processes, switched on and
 off as a person would; the wired learner must then do it alone, inside the output space."""
+import pytest
+
 from bus_schema.spaces import Spaces
 from rigs.harness import free_port
 from rigs.live.fits import wait_caught_up
 from rigs.live.mirroring import RATE, start_mirroring, student_error
 from services.platforms.aibo.platform import JOINTS_BOX
 from services.teachers import make_teacher
+
+pytestmark = pytest.mark.live
 
 MAP = {"seed": 3, "inputs": [16, 17], "outputs": [12, 13], "span": 1.3}
 

@@ -18,6 +18,7 @@ def learned():
     return learned_gait(taught_walk_model(TEACHING_S, seed=0))
 
 
+@pytest.mark.slow
 def test_the_learned_gait_walks_forward_half_a_metre_in_ten_seconds(learned):
     walked = walk_alone(learned, 0.15, 0.0)
     print(f"after {TEACHING_S:.0f} s of teaching: {walked.distance_m:.2f} m forward in 10 s")
@@ -25,6 +26,7 @@ def test_the_learned_gait_walks_forward_half_a_metre_in_ten_seconds(learned):
     assert walked.lowest_upright > 0.9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("direction", [1, -1], ids=["left", "right"])
 def test_the_learned_gait_turns_45_degrees_each_way_in_ten_seconds(learned, direction):
     walked = walk_alone(learned, 0.0, direction * 0.8)

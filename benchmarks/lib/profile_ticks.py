@@ -2,7 +2,7 @@
 
 deploy/<profile>.toml is copied as it is into a scratch folder (its learners' state, logs and recording go
 there) and brought up by the supervisor on a router of its own: its platform, wired learner, teachers,
-arbitrator, page and recorder. The camera profiles get the pink ball put down where README's user puts it.
+arbitrator, page and recorder. The camera profiles get the pink ball put down where docs/teaching.md's user puts it.
 Then a lesson (the teacher switched on, as `dogged teach on` does), then the teacher off while the student
 drives. An observer, a peer on the bus as the services are, sees each tick's input, learner proposal and
 command; a tick's time is the command's arrival less the input's stamp (the platform's clock as it
@@ -27,10 +27,10 @@ from services.supervisor.profile import Profile, ServiceSpec, load_profile
 
 PROFILES = ("mirroring", "ballseek", "hierarchy", "gym")
 # what the person switches on to teach: (instance, teacher; "" is every teacher of the instance). Mirroring's
-# recorded run in the issue had its one full teacher on; hierarchy teaches both levels at once (README)
+# recorded run in the issue had its one full teacher on; hierarchy teaches both levels at once (docs/hierarchy.md)
 LESSONS = {"mirroring": (("main", "mirror"),), "ballseek": (("main", ""),),
            "hierarchy": (("walk", ""), ("seek", "")), "gym": (("main", ""),)}
-ARENA = (3, {"pink": [0.9, 0.3], "orange": None})  # README's `dogged arena --seed 3 --ball pink=0.9,0.3 ...`
+ARENA = (3, {"pink": [0.9, 0.3], "orange": None})  # docs/teaching.md's `dogged arena --seed 3 --ball pink=0.9,0.3 ...`
 SETTLE_S = 1.0  # after a switch, before the phase counts: the teaching token reaches the arbitrator
 PHASES = ("teaching", "student")
 # each profile as deployed (secured by this user's own identities), and mirroring again right after with

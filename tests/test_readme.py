@@ -1,0 +1,37 @@
+"""The README opens with its two commands, and they are what they say: `make demo`, and `make test`, the
+whole suite (CI runs it); `make check` is the fast tier. The README fits on two screens (issue 32)."""
+import re
+
+from tests import fast_tier
+from rigs.harness import REPO
+
+README = (REPO / "README.md").read_text()
+SCREENS = 2 * 60  # lines
+
+
+def recipe(target: str) -> list[str]:
+    """The commands of a Makefile target."""
+    found = re.search(rf"^{target}:[^\n]*\n((?:\t[^\n]*\n)+)", (REPO / "Makefile").read_text(), re.M)
+    assert found, f"the Makefile has no target {target}"
+    return [line.strip() for line in found.group(1).splitlines()]
+
+
+def test_the_readme_starts_with_exactly_the_two_commands():
+    assert README.startswith("# dogged\n\n```bash\nmake demo\nmake test\n```\n")
+
+
+def test_make_test_is_ruff_and_the_whole_suite_and_ci_runs_it():
+    assert recipe("test") == ["$(VENV)/bin/ruff check .", "$(VENV)/bin/pytest -q -rs"]
+    assert (REPO / ".ci" / "run").read_text().rstrip().endswith("\nmake test")
+
+
+def test_make_demo_runs_the_demo():
+    assert recipe("demo") == ["$(VENV)/bin/dogged demo"]
+
+
+def test_make_check_is_ruff_and_the_fast_tier():
+    assert recipe("check") == ["$(VENV)/bin/ruff check .", f"$(VENV)/bin/pytest -q {fast_tier.FLAG} --durations=5"]
+
+
+def test_the_readme_fits_on_two_screens():
+    assert len(README.splitlines()) <= SCREENS, "move the detail to a page of docs/ and link it"
