@@ -16,6 +16,8 @@ import pytest
 
 from rigs.imports import imported, module_name, named_in_strings, within
 
+pytestmark = pytest.mark.live  # pip builds the wheel in a process of its own
+
 REPO = Path(__file__).resolve().parents[1]
 LEFT_OUT_OF_THE_COPY = (".git", ".venv*", "build", "*.egg-info", "runs", "__pycache__", ".pytest_cache")
 
