@@ -4,8 +4,10 @@ Each payload is checked against the bus schema before it is written (one that do
 counted and logged, not recorded); the platform's spaces go into every file as metadata. A folder it
 cannot write (unwritable, a full disk) is an error in its status (`dogged ps`) and its log: it keeps
 running, counts what it could not record, and tries a new file every few seconds; the loop never
-waits for it. A person may pause it and resume it (`dl/<i>/record`, the page's Record switch): paused,
-it counts what it does not write; the switches themselves are recorded, so a file says why it has a gap.
+waits for it. Once the disk takes writes again, the files it had to leave unfinished are finished (or
+removed, when they hold no message), so every file of the run opens in mcap's readers. A person may
+pause it and resume it (`dl/<i>/record`, the page's Record switch): paused, it counts what it does not
+write; the switches themselves are recorded, so a file says why it has a gap.
 What waits to be written is bounded (`--inbox-mb`): past it, samples are dropped on arrival and counted
 (`inbox_dropped`), so a flood or a stalled disk costs those samples, not the process. On a stop, what
 had arrived is written before the file is finished.
@@ -100,9 +102,12 @@ class Recording:
 
     def upkeep(self) -> None:
         try:
-            self.writer.upkeep()
+            wrote = self.writer.upkeep()
         except OSError as err:
             self.failed(err)
+            return
+        if wrote and self.writer.abandoned:  # the disk takes writes again: the files it cut are finished now
+            self.writer.abandoned = [p for p in self.writer.abandoned if not finish_cut(p, self.log)]
 
     def failed(self, err: OSError) -> None:
         where = self.writer.path or self.writer.folder
@@ -122,16 +127,30 @@ class Recording:
                           "recording": not self.paused}
 
 
+def finish_cut(path: Path, log) -> bool:
+    """A file left unfinished (a kill, a full disk) rewritten as a finished one, or removed if it holds no
+    message (a new file a full disk let the recorder open, but not write). False if that failed (the disk
+    is still full, say): it is left as it is, for later."""
+    try:
+        messages = repair(path)
+        if messages == 0:
+            path.unlink()
+            log.info("removed %s (left unfinished, with no message in it)", path)
+        else:
+            log.info("repaired %s (left unfinished): %d messages", path, messages)
+        return True
+    except OSError as err:
+        log.error("could not repair %s: %s", path, err)
+        return False
+
+
 def repair_unfinished(folder: Path, name: str, log) -> None:
     """This recorder's files a killed run left unfinished, rewritten as finished ones."""
     if not folder.is_dir():
         return
     for path in sorted(folder.glob(f"{name}-*.mcap")):
         if file_index(path, name) is not None and not is_finished(path):
-            try:
-                log.info("repaired %s (left unfinished): %d messages", path, repair(path))
-            except OSError as err:
-                log.error("could not repair %s: %s", path, err)
+            finish_cut(path, log)
 
 
 def ask_spaces(session, keys: list[str], inbox: Inbox) -> None:

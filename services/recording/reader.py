@@ -105,6 +105,17 @@ def spaces_in(metadata: dict, instance: str) -> dict | None:
 def repair(path: Path) -> int:
     """Rewrite an unfinished file as a finished one holding every whole record; returns its messages."""
     tmp = path.with_suffix(".repairing")
+    try:
+        count = _rewrite(path, tmp)
+    except BaseException:  # (a disk still full): no half-written copy left beside the file
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, path)
+    return count
+
+
+def _rewrite(path: Path, tmp: Path) -> int:
+    """Every whole record of `path` into a finished file `tmp`; returns its messages."""
     schemas: dict[int, int] = {}
     channels: dict[int, int] = {}
     count = 0
@@ -127,5 +138,4 @@ def repair(path: Path) -> int:
         writer.finish()
         out.flush()
         os.fsync(out.fileno())
-    os.replace(tmp, path)
     return count
