@@ -144,13 +144,15 @@ def finish_cut(path: Path, log) -> bool:
         return False
 
 
-def repair_unfinished(folder: Path, name: str, log) -> None:
-    """This recorder's files a killed run left unfinished, rewritten as finished ones."""
-    if not folder.is_dir():
+def repair_unfinished(writer: RunWriter, log) -> None:
+    """This recorder's files a killed run left unfinished (in the writer's folder), rewritten as finished
+    ones; those it cannot rewrite yet (a full disk) are the writer's abandoned files, finished once the disk
+    takes writes again (Recording.upkeep)."""
+    if not writer.folder.is_dir():
         return
-    for path in sorted(folder.glob(f"{name}-*.mcap")):
-        if file_index(path, name) is not None and not is_finished(path):
-            finish_cut(path, log)
+    for path in sorted(writer.folder.glob(f"{writer.name}-*.mcap")):
+        if file_index(path, writer.name) is not None and not is_finished(path) and not finish_cut(path, log):
+            writer.abandoned.append(path)
 
 
 def ask_spaces(session, keys: list[str], inbox: Inbox) -> None:
@@ -179,8 +181,8 @@ def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str,
         log.error("%s", err)
         return 2
     stop, inbox = StopFlag(), Inbox(int(inbox_mb * 2**20))
-    repair_unfinished(out, name, log)
     writer = RunWriter(out, name, int(rotate_mb * 1e6), rotate_min * 60.0, flush_s)
+    repair_unfinished(writer, log)
     writer.add_metadata("run", {"instances": ",".join(instances), "robots": ",".join(robots),
                                 "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%SZ",
                                                                                        time.gmtime())})
