@@ -16,6 +16,7 @@ from services.boxes import recorder as recorder_box
 from services.boxes.recorder import Recording
 from services.platforms.point import PointPlatform
 from services.recording.reader import is_finished, iter_samples, read_metadata, repair, run_files
+from services.recording.runs import load_run
 from services.recording.writer import RunWriter
 from services.supervisor.profile import ProfileError, load_profile
 
@@ -213,10 +214,10 @@ def test_a_file_a_kill_cut_that_a_full_disk_kept_from_repair_at_start_is_finishe
     [cut] = run_files(tmp_path)
     disk, real_repair = FillingDisk(), recorder_box.repair
 
-    def repair(path):
+    def repair(path, metadata=None):
         if disk.full:
             raise OSError(errno.ENOSPC, "No space left on device")
-        return real_repair(path)
+        return real_repair(path, metadata)
     monkeypatch.setattr(recorder_box, "repair", repair)
     disk.full = True
     writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
@@ -230,6 +231,30 @@ def test_a_file_a_kill_cut_that_a_full_disk_kept_from_repair_at_start_is_finishe
     assert is_finished(cut)
     with open(cut, "rb") as f:
         assert sum(1 for _ in make_reader(f).iter_messages()) == 350
+
+
+def test_a_file_cut_before_the_spaces_came_is_finished_with_them_and_replays_alone(tmp_path, monkeypatch):
+    """(the soak's restarted recorder began a file, the disk filled before the platform's spaces came, and the
+    file, repaired, replayed in its run but not alone: `dogged replay FILE` said no spaces were recorded)"""
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    disk = FillingDisk()
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
+    rec = Recording(writer, LOG)
+
+    def feed(ticks, at):
+        for t in ticks:
+            rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, np.zeros(4))), at + t)
+            rec.upkeep()
+    feed(range(1, 21), 0)
+    [cut] = run_files(tmp_path)
+    disk.full = True
+    feed(range(21, 26), 10**6)
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(PointPlatform(dims=2).spaces.to_dict())))
+    disk.full = False
+    feed(range(26, 31), 2 * 10**6)
+    writer.close()
+    assert is_finished(cut) and "spaces dl/main" in read_metadata(cut)
+    assert len(load_run(cut).ticks) == 20
 
 
 def test_catalog_names_every_published_key():

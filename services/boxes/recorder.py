@@ -107,7 +107,8 @@ class Recording:
             self.failed(err)
             return
         if wrote and self.writer.abandoned:  # the disk takes writes again: the files it cut are finished now
-            self.writer.abandoned = [p for p in self.writer.abandoned if not finish_cut(p, self.log)]
+            self.writer.abandoned = [p for p in self.writer.abandoned
+                                     if not finish_cut(p, self.log, self.writer.metadata)]
 
     def failed(self, err: OSError) -> None:
         where = self.writer.path or self.writer.folder
@@ -127,12 +128,13 @@ class Recording:
                           "recording": not self.paused}
 
 
-def finish_cut(path: Path, log) -> bool:
-    """A file left unfinished (a kill, a full disk) rewritten as a finished one, or removed if it holds no
-    message (a new file a full disk let the recorder open, but not write). False if that failed (the disk
+def finish_cut(path: Path, log, metadata: dict | None = None) -> bool:
+    """A file left unfinished (a kill, a full disk) rewritten as a finished one, with the run's `metadata` it
+    lacks (spaces that came after it was cut: without them it would not replay alone), or removed if it holds
+    no message (a new file a full disk let the recorder open, but not write). False if that failed (the disk
     is still full, say): it is left as it is, for later."""
     try:
-        messages = repair(path)
+        messages = repair(path, metadata)
         if messages == 0:
             path.unlink()
             log.info("removed %s (left unfinished, with no message in it)", path)
