@@ -159,7 +159,8 @@ def test_a_full_disk_is_an_error_and_recording_resumes_when_it_can(tmp_path, mon
 
 class FillingDisk:
     """Files on a disk that fills: while `full`, every write raises ENOSPC, though new files can still be
-    made (what a real full filesystem does; /dev/full takes no file at all)."""
+    made (what a real full filesystem does; /dev/full takes no file at all). A buffer of one byte: each write
+    reaches the disk, as one does once a file's buffer is full."""
 
     def __init__(self):
         self.full = False
@@ -172,7 +173,7 @@ class FillingDisk:
                 if disk.full:
                     raise OSError(errno.ENOSPC, "No space left on device")
                 return super().write(data)
-        return io.BufferedWriter(File(path, mode))
+        return io.BufferedWriter(File(path, mode), buffer_size=1)
 
 
 def test_files_a_full_disk_cut_open_in_mcaps_reader_once_it_has_room_again(tmp_path, monkeypatch):
@@ -255,6 +256,27 @@ def test_a_file_cut_before_the_spaces_came_is_finished_with_them_and_replays_alo
     writer.close()
     assert is_finished(cut) and "spaces dl/main" in read_metadata(cut)
     assert len(load_run(cut).ticks) == 20
+
+
+def test_the_spaces_coming_while_the_disk_is_full_cost_no_crash(tmp_path, monkeypatch):
+    """(the soak's recorder, restarted on a full disk, exited with ENOSPC from add_metadata when the spaces
+    came, again at each restart, its supervisor's backoff growing)"""
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    disk = FillingDisk()
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
+    rec = Recording(writer, LOG)
+    rng = np.random.default_rng(0)
+    for t in range(1, 1001):  # a file in progress, its chunk (more than the stream's buffer) not flushed yet
+        rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, rng.uniform(-1, 1, 4))), t)
+    disk.full = True
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(PointPlatform(dims=2).spaces.to_dict())))
+    assert "No space left on device" in rec.error
+    disk.full = False
+    for t in range(1001, 1011):
+        rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, np.zeros(4))), t)
+        rec.upkeep()
+    writer.close()
+    assert all("spaces dl/main" in read_metadata(path) for path in run_files(tmp_path))
 
 
 def test_catalog_names_every_published_key():

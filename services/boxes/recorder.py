@@ -94,7 +94,10 @@ class Recording:
                 self.rejects(key, err)
             return
         if known is None:
-            self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+            try:  # (kept by the writer even when this file cannot take it: every next file gets it)
+                self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+            except OSError as err:
+                self.failed(err)
             if prefix.startswith("dl/"):
                 self.dims[prefix] = {"x": parsed.input.dims, "y": parsed.output.dims}
         elif known["spaces"] != json.dumps(spaces) and self.dims.pop(prefix, None) is not None:

@@ -76,9 +76,10 @@ class RunWriter:
         self.folder.mkdir(parents=True, exist_ok=True)
         path = self.next_path()
         self._stream = self.open_file(path, "wb")
+        self.path = path  # before anything is written: a file whose header a full disk refused is this one
         self._writer = Writer(self._stream, chunk_size=1 << 20, compression=CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="dogged recorder")
-        self.path, self._schemas, self._channels, self._sequence = path, {}, {}, {}
+        self._schemas, self._channels, self._sequence = {}, {}, {}
         self._opened = self._flushed = time.monotonic()
         self.files_written += 1
         for name, data in self.metadata.items():
