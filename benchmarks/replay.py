@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 from rigs.harness import free_port  # noqa: E402
 from rigs.live.mirroring import start_mirroring  # noqa: E402
 from services.demo.ballseek import run_ballseek_live  # noqa: E402
-from services.experiments.wiring import wired_learner  # noqa: E402
+from services.experiments.wiring import wired_spec  # noqa: E402
 from services.learners import compile_kernels, make_learner  # noqa: E402
 from services.recording.reader import iter_samples, run_files  # noqa: E402
 from services.recording.runs import load_run  # noqa: E402
@@ -82,12 +82,6 @@ def size_figures(folder: Path) -> dict:
     minutes = (max(times) - min(times)) / 60e9
     mb = sum(p.stat().st_size for p in files) / 1e6
     return {"files": len(files), "messages": len(times), "mb": mb, "minutes": minutes, "mb_per_min": mb / minutes}
-
-
-def wired_spec(name: str) -> str:
-    """The learner deploy/<name>.toml wires, as a replay spec ('per-output:base=gp')."""
-    learner, params = wired_learner(name)
-    return learner + (":" + ",".join(f"{k}={v}" for k, v in params.items()) if params else "")
 
 
 def replay_figures(name: str, folder: Path) -> dict:

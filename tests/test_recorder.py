@@ -1,5 +1,7 @@
 """The recorder without a bus: MCAP files that mcap's own reader opens, rotation, a cut file read and
 repaired, a full disk reported and survived, the profile's recorder."""
+import errno
+import io
 import json
 import logging
 import shutil
@@ -14,6 +16,7 @@ from services.boxes import recorder as recorder_box
 from services.boxes.recorder import Recording
 from services.platforms.point import PointPlatform
 from services.recording.reader import is_finished, iter_samples, read_metadata, repair, run_files
+from services.recording.runs import load_run
 from services.recording.writer import RunWriter
 from services.supervisor.profile import ProfileError, load_profile
 
@@ -152,6 +155,128 @@ def test_a_full_disk_is_an_error_and_recording_resumes_when_it_can(tmp_path, mon
     writer.close()
     assert rec.error == "" and rec.report()[1]["error"] == ""
     assert sum(1 for s in iter_samples(tmp_path) if s.key == "dl/main/input") == 10
+
+
+class FillingDisk:
+    """Files on a disk that fills: while `full`, every write raises ENOSPC, though new files can still be
+    made (what a real full filesystem does; /dev/full takes no file at all). A buffer of one byte: each write
+    reaches the disk, as one does once a file's buffer is full."""
+
+    def __init__(self):
+        self.full = False
+
+    def open(self, path, mode):
+        disk = self
+
+        class File(io.FileIO):
+            def write(self, data):
+                if disk.full:
+                    raise OSError(errno.ENOSPC, "No space left on device")
+                return super().write(data)
+        return io.BufferedWriter(File(path, mode), buffer_size=1)
+
+
+def test_files_a_full_disk_cut_open_in_mcaps_reader_once_it_has_room_again(tmp_path, monkeypatch):
+    """Issue 31's soak found them cut (no summary, no footer: mcap's reader refused them) and a new empty
+    file left at every retry, until the recorder happened to restart."""
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    disk = FillingDisk()
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
+    rec = Recording(writer, LOG)
+
+    def feed(n, at):
+        for i, (key, raw) in enumerate(samples(n)):
+            rec.on_sample(key, raw, at + i)
+            rec.upkeep()
+    feed(100, 0)
+    disk.full = True
+    feed(50, 10**6)
+    assert rec.counts["write_errors"] >= 2 and len(list(tmp_path.glob("*.mcap"))) >= 2  # retried in new files
+    disk.full = False
+    feed(10, 2 * 10**6)
+    writer.close()
+    inputs = 0
+    for path in run_files(tmp_path):
+        with open(path, "rb") as f:
+            messages = [channel.topic for _, channel, _ in make_reader(f).iter_messages()]
+        assert messages, f"{path.name} holds nothing"
+        inputs += messages.count("dl/main/input")
+    assert inputs == 100 + 10  # all that reached the disk before it filled, and all after
+    assert not list(tmp_path.glob("*.repairing"))
+
+
+def test_a_file_a_kill_cut_that_a_full_disk_kept_from_repair_at_start_is_finished_once_it_can(tmp_path,
+                                                                                                monkeypatch):
+    """(the soak's recorder, killed, came back while its disk was full: the repair at its start failed, and
+    nothing tried again)"""
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    killed = record(tmp_path, n=100, flush_s=0.0, upkeep=True)
+    killed.writer.abandon()  # what a SIGKILL leaves: the file unfinished
+    [cut] = run_files(tmp_path)
+    disk, real_repair = FillingDisk(), recorder_box.repair
+
+    def repair(path, metadata=None):
+        if disk.full:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_repair(path, metadata)
+    monkeypatch.setattr(recorder_box, "repair", repair)
+    disk.full = True
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
+    recorder_box.repair_unfinished(writer, LOG)  # as the restarted recorder does first
+    assert not is_finished(cut)
+    rec = Recording(writer, LOG)
+    disk.full = False
+    for i, (key, raw) in enumerate(samples(10)):
+        rec.on_sample(key, raw, 10**6 + i)
+        rec.upkeep()
+    assert is_finished(cut)
+    with open(cut, "rb") as f:
+        assert sum(1 for _ in make_reader(f).iter_messages()) == 350
+
+
+def test_a_file_cut_before_the_spaces_came_is_finished_with_them_and_replays_alone(tmp_path, monkeypatch):
+    """(the soak's restarted recorder began a file, the disk filled before the platform's spaces came, and the
+    file, repaired, replayed in its run but not alone: `dogged replay FILE` said no spaces were recorded)"""
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    disk = FillingDisk()
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
+    rec = Recording(writer, LOG)
+
+    def feed(ticks, at):
+        for t in ticks:
+            rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, np.zeros(4))), at + t)
+            rec.upkeep()
+    feed(range(1, 21), 0)
+    [cut] = run_files(tmp_path)
+    disk.full = True
+    feed(range(21, 26), 10**6)
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(PointPlatform(dims=2).spaces.to_dict())))
+    disk.full = False
+    feed(range(26, 31), 2 * 10**6)
+    writer.close()
+    assert is_finished(cut) and "spaces dl/main" in read_metadata(cut)
+    assert len(load_run(cut).ticks) == 20
+
+
+def test_the_spaces_coming_while_the_disk_is_full_cost_no_crash(tmp_path, monkeypatch):
+    """(the soak's recorder, restarted on a full disk, exited with ENOSPC from add_metadata when the spaces
+    came, again at each restart, its supervisor's backoff growing)"""
+    monkeypatch.setattr(recorder_box, "RETRY_S", 0.0)
+    disk = FillingDisk()
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0, flush_s=0.0, open_file=disk.open)
+    rec = Recording(writer, LOG)
+    rng = np.random.default_rng(0)
+    for t in range(1, 1001):  # a file in progress, its chunk (more than the stream's buffer) not flushed yet
+        rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, rng.uniform(-1, 1, 4))), t)
+    disk.full = True
+    rec.on_spaces("dl/main/spaces", encode(SpacesMessage(PointPlatform(dims=2).spaces.to_dict())))
+    assert "No space left on device" in rec.error
+    disk.full = False
+    for t in range(1001, 1011):
+        rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, np.zeros(4))), t)
+        rec.upkeep()
+    writer.close()
+    assert all("spaces dl/main" in read_metadata(path) for path in run_files(tmp_path))
 
 
 def test_catalog_names_every_published_key():

@@ -107,3 +107,25 @@ def test_a_swap_answered_with_a_hostile_snapshot_learns_the_history_and_runs_not
     assert not marker.exists()
     assert n.rejects.total == 1 and n.model.n_learned == 40 and len(n.pairs) == 40
     assert "training on 40 pairs" in caplog.text
+
+
+def test_a_swap_whose_old_learner_is_restarting_waits_for_it_and_warms(monkeypatch):
+    """(issue 31's soak: the old learner SIGKILLed mid-swap; its replacement started cold, and every pair
+    the arbitrator no longer held, those of its earlier runs, was gone with it)"""
+    from services.boxes import learner as learner_box
+    from tests.test_learner_box_hostile import node
+
+    monkeypatch.setattr(learner_box, "ASK_AGAIN_S", 0.01)
+    rng = np.random.default_rng(0)
+    xs, ys = rng.uniform(-1, 1, (40, 2)), rng.uniform(-1, 1, (40, 1))
+    answers = {"snapshot": Snapshot("SOGP", "e1", 40, 40, b"another class: learn the history"),
+               "history": PairBatch("e1", 1, xs, ys, np.ones_like(ys))}
+    asked = []
+
+    def query(key, cls, parameters="", timeout=5.0):
+        asked.append(key)
+        return answers[key.rsplit("/", 1)[-1]] if len(asked) > 5 else None  # down for its first five asks
+    n = node()
+    n.query = query
+    assert n.warm_from("old")
+    assert n.model.n_learned == 40 and len(n.pairs) == 40 and n.counts["warmed"] == 40

@@ -10,6 +10,7 @@ import pytest
 import zenoh
 
 from bus_schema import ControlReply, decode, supervisor_key
+from services.supervisor import process
 from services.supervisor.profile import Profile, ServiceSpec
 from services.supervisor.supervisor import Supervisor
 from services.supervisor.verbs import MAX_DEFERRED
@@ -80,6 +81,23 @@ def test_on_failure_restarts_with_doubling_backoff_then_fails_after_max_restarts
             assert sup.turn(lambda: proc.state != "backoff", 5.0)
     assert delays == [0.2, 0.4]
     assert proc.restarts == 2 and proc.last_exit == 3
+
+
+def test_a_service_that_ran_a_while_before_it_died_is_restarted_past_max_restarts(tmp_path, monkeypatch):
+    """(a robot run all day, a service killed now and then: after its max_restarts-th kill it stayed down
+    for good, and each restart waited longer than the last, however long it had run in between: issue 31)"""
+    monkeypatch.setattr(process, "HEALTHY_S", 0.3)
+    sup = FakeCommands(tmp_path, spec("long", restart="on-failure", max_restarts=1, backoff_s=0.05),
+                       commands={"long": [sys.executable, "-c", "import sys, time; time.sleep(0.5); sys.exit(3)"]})
+    sup.start_due()
+    proc = sup.procs["long"]
+    delays = []
+    while len(delays) < 3:
+        assert sup.turn(lambda: proc.state in ("backoff", "failed"), 10.0) and proc.state == "backoff", proc.state
+        delays.append(round(proc.restart_at - proc.died_at, 2))
+        assert sup.turn(lambda: proc.state != "backoff", 5.0)
+    assert delays == [0.05, 0.05, 0.05] and proc.restarts == 3 and proc.describe()["restarts"] == 3
+    sup.stop_all()
 
 
 def test_restart_policies_on_a_clean_exit(tmp_path):

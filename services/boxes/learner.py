@@ -139,12 +139,23 @@ class LearnerNode:
             self.epoch, self.seq = p.epoch, p.seq
         self.counts["replayed"] = len(pairs)
 
+    def ask_until(self, deadline: float, key, cls, parameters="", timeout=5.0):
+        """query(), asked again until it is answered or `deadline` (monotonic) has passed."""
+        while True:
+            answer = self.query(key, cls, parameters, timeout)
+            if answer is not None or time.monotonic() >= deadline:
+                return answer
+            time.sleep(ASK_AGAIN_S)
+
     def warm_from(self, old: str) -> bool:
-        """Take over from learner `old`: its snapshot if the class matches, else learn its history."""
-        snap = self.query(self.keys.snapshot(old), Snapshot, timeout=10.0)
+        """Take over from learner `old`: its snapshot if the class matches, else learn its history. While
+        `old` does not answer (killed, its supervisor restarting it) it is asked again, for WARM_WAIT_S."""
+        deadline = time.monotonic() + WARM_WAIT_S
+        snap = self.ask_until(deadline, self.keys.snapshot(old), Snapshot, timeout=10.0)
         if snap is None:
             return self.start_cold(f"learner {old} did not answer with a snapshot")
-        history = self.query(self.keys.history(old), PairBatch, f"epoch={snap.epoch};upto={snap.seq}", timeout=30.0)
+        history = self.ask_until(deadline, self.keys.history(old), PairBatch, f"epoch={snap.epoch};upto={snap.seq}",
+                                 timeout=30.0)
         if history is None or len(history.x) != snap.n_learned:
             return self.start_cold(f"learner {old}'s history is incomplete")
         restored = None
@@ -224,6 +235,9 @@ def same_params(a, b) -> bool:
     return {k: repr(v) for k, v in a.get_params().items()} == {k: repr(v) for k, v in b.get_params().items()}
 
 
+# a hot-swap's new learner asks the old one again while it does not answer (killed mid-swap and restarted:
+# a cold start would lose every pair the arbitrator no longer holds); the swap waits for it (ready_timeout_s)
+WARM_WAIT_S, ASK_AGAIN_S = 30.0, 0.5
 PLAUSIBLE_GAP = 65536  # the arbitrator's recent pairs: a longer jump in seq must be confirmed by it
 
 

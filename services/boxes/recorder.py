@@ -4,8 +4,10 @@ Each payload is checked against the bus schema before it is written (one that do
 counted and logged, not recorded); the platform's spaces go into every file as metadata. A folder it
 cannot write (unwritable, a full disk) is an error in its status (`dogged ps`) and its log: it keeps
 running, counts what it could not record, and tries a new file every few seconds; the loop never
-waits for it. A person may pause it and resume it (`dl/<i>/record`, the page's Record switch): paused,
-it counts what it does not write; the switches themselves are recorded, so a file says why it has a gap.
+waits for it. Once the disk takes writes again, the files it had to leave unfinished are finished (or
+removed, when they hold no message), so every file of the run opens in mcap's readers. A person may
+pause it and resume it (`dl/<i>/record`, the page's Record switch): paused, it counts what it does not
+write; the switches themselves are recorded, so a file says why it has a gap.
 What waits to be written is bounded (`--inbox-mb`): past it, samples are dropped on arrival and counted
 (`inbox_dropped`), so a flood or a stalled disk costs those samples, not the process. On a stop, what
 had arrived is written before the file is finished.
@@ -93,7 +95,10 @@ class Recording:
                 self.rejects(key, err)
             return
         if known is None:
-            self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+            try:  # (kept by the writer even when this file cannot take it: every next file gets it)
+                self.writer.add_metadata(name, {"spaces": json.dumps(spaces)})
+            except OSError as err:
+                self.failed(err)
             if prefix.startswith("dl/"):
                 self.dims[prefix] = {"x": parsed.input.dims, "y": parsed.output.dims}
         elif known["spaces"] != json.dumps(spaces) and self.dims.pop(prefix, None) is not None:
@@ -101,9 +106,13 @@ class Recording:
 
     def upkeep(self) -> None:
         try:
-            self.writer.upkeep()
+            wrote = self.writer.upkeep()
         except OSError as err:
             self.failed(err)
+            return
+        if wrote and self.writer.abandoned:  # the disk takes writes again: the files it cut are finished now
+            self.writer.abandoned = [p for p in self.writer.abandoned
+                                     if not finish_cut(p, self.log, self.writer.metadata)]
 
     def failed(self, err: OSError) -> None:
         where = self.writer.path or self.writer.folder
@@ -122,16 +131,33 @@ class Recording:
                           "recording": not self.paused}
 
 
-def repair_unfinished(folder: Path, name: str, log) -> None:
-    """This recorder's files a killed run left unfinished, rewritten as finished ones."""
-    if not folder.is_dir():
+def finish_cut(path: Path, log, metadata: dict | None = None) -> bool:
+    """A file left unfinished (a kill, a full disk) rewritten as a finished one, with the run's `metadata` it
+    lacks (spaces that came after it was cut: without them it would not replay alone), or removed if it holds
+    no message (a new file a full disk let the recorder open, but not write). False if that failed (the disk
+    is still full, say): it is left as it is, for later."""
+    try:
+        messages = repair(path, metadata)
+        if messages == 0:
+            path.unlink()
+            log.info("removed %s (left unfinished, with no message in it)", path)
+        else:
+            log.info("repaired %s (left unfinished): %d messages", path, messages)
+        return True
+    except OSError as err:
+        log.error("could not repair %s: %s", path, err)
+        return False
+
+
+def repair_unfinished(writer: RunWriter, log) -> None:
+    """This recorder's files a killed run left unfinished (in the writer's folder), rewritten as finished
+    ones; those it cannot rewrite yet (a full disk) are the writer's abandoned files, finished once the disk
+    takes writes again (Recording.upkeep)."""
+    if not writer.folder.is_dir():
         return
-    for path in sorted(folder.glob(f"{name}-*.mcap")):
-        if file_index(path, name) is not None and not is_finished(path):
-            try:
-                log.info("repaired %s (left unfinished): %d messages", path, repair(path))
-            except OSError as err:
-                log.error("could not repair %s: %s", path, err)
+    for path in sorted(writer.folder.glob(f"{writer.name}-*.mcap")):
+        if file_index(path, writer.name) is not None and not is_finished(path) and not finish_cut(path, log):
+            writer.abandoned.append(path)
 
 
 def ask_spaces(box: BoxRuntime, keys: list[str]) -> None:
@@ -159,8 +185,8 @@ def main(conf: zenoh.Config, instances: list[str], robots: list[str], name: str,
         setup_logging("recorder", name).error("%s", err)
         return 2
     box = BoxRuntime(conf, InstanceKeys(instances[0]), "recorder", name, inbox_bytes=int(inbox_mb * 2**20))
-    repair_unfinished(out, name, box.log)
     writer = RunWriter(out, name, int(rotate_mb * 1e6), rotate_min * 60.0, flush_s)
+    repair_unfinished(writer, box.log)
     writer.add_metadata("run", {"instances": ",".join(instances), "robots": ",".join(robots),
                                 "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%SZ",
                                                                                        time.gmtime())})

@@ -15,3 +15,9 @@ def wired_learner(profile: str, instance: str | None = None) -> tuple[str, dict]
     if spec is None:
         raise ValueError(f"deploy/{profile}.toml starts no learner" + (f" for instance {instance}" if instance else ""))
     return spec.options.learner, parse_params(spec.options.param)
+
+
+def wired_spec(profile: str) -> str:
+    """The learner deploy/<profile>.toml wires, as a `dogged swap` or replay spec ('per-output:base=gp')."""
+    learner, params = wired_learner(profile)
+    return learner + (":" + ",".join(f"{k}={v}" for k, v in params.items()) if params else "")

@@ -102,9 +102,23 @@ def spaces_in(metadata: dict, instance: str) -> dict | None:
     return json.loads(entry["spaces"]) if entry else None
 
 
-def repair(path: Path) -> int:
-    """Rewrite an unfinished file as a finished one holding every whole record; returns its messages."""
+def repair(path: Path, metadata: dict[str, dict[str, str]] | None = None) -> int:
+    """Rewrite an unfinished file as a finished one holding every whole record, and each of `metadata` (name:
+    record) it lacks (what its recorder learned after the file was cut: the spaces); returns its messages."""
     tmp = path.with_suffix(".repairing")
+    try:
+        count = _rewrite(path, tmp, metadata or {})
+    except BaseException:  # (a disk still full): no half-written copy left beside the file
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, path)
+    return count
+
+
+def _rewrite(path: Path, tmp: Path, metadata: dict[str, dict[str, str]]) -> int:
+    """Every whole record of `path` and each of `metadata` it lacks into a finished file `tmp`; returns its
+    messages."""
+    named: set[str] = set()
     schemas: dict[int, int] = {}
     channels: dict[int, int] = {}
     count = 0
@@ -120,12 +134,15 @@ def repair(path: Path) -> int:
                                                               schemas.get(record.schema_id, 0), record.metadata)
             elif isinstance(record, Metadata):
                 writer.add_metadata(record.name, dict(record.metadata))
+                named.add(record.name)
             elif isinstance(record, Message) and record.channel_id in channels:
                 writer.add_message(channels[record.channel_id], record.log_time, record.data, record.publish_time,
                                    record.sequence)
                 count += 1
+        for name, data in metadata.items():
+            if name not in named:
+                writer.add_metadata(name, data)
         writer.finish()
         out.flush()
         os.fsync(out.fileno())
-    os.replace(tmp, path)
     return count

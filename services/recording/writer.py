@@ -60,6 +60,7 @@ class RunWriter:
         self.path: Path | None = None
         self.files_written, self.messages = 0, 0
         self.pending = 0  # messages written since the last flush: what a failure now loses
+        self.abandoned: list[Path] = []  # files given up on after a failed write, left unfinished (see abandon)
         self._writer = self._stream = None
         self._schemas: dict[type, int] = {}
         self._channels: dict[str, int] = {}
@@ -75,9 +76,10 @@ class RunWriter:
         self.folder.mkdir(parents=True, exist_ok=True)
         path = self.next_path()
         self._stream = self.open_file(path, "wb")
+        self.path = path  # before anything is written: a file whose header a full disk refused is this one
         self._writer = Writer(self._stream, chunk_size=1 << 20, compression=CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="dogged recorder")
-        self.path, self._schemas, self._channels, self._sequence = path, {}, {}, {}
+        self._schemas, self._channels, self._sequence = {}, {}, {}
         self._opened = self._flushed = time.monotonic()
         self.files_written += 1
         for name, data in self.metadata.items():
@@ -104,26 +106,32 @@ class RunWriter:
         self.messages += 1
         self.pending += 1
 
-    def upkeep(self) -> None:
-        """Call often: finishes the chunk in progress every flush_s, rotates when the file is big or old."""
+    def upkeep(self) -> bool:
+        """Call often: finishes the chunk in progress every flush_s, rotates when the file is big or old.
+        True when a chunk went to the file (so the disk takes writes)."""
         if self._writer is None:
-            return
-        now = time.monotonic()
+            return False
+        now, flushed = time.monotonic(), False
         if now - self._flushed >= self.flush_s:
             self._writer.flush()
-            self._flushed, self.pending = now, 0
+            self._stream.flush()
+            self._flushed, self.pending, flushed = now, 0, True
         if self._stream.tell() >= self.rotate_bytes or now - self._opened >= self.rotate_s:
             self.close()
+        return flushed
 
     @property
     def bytes_in_file(self) -> int:
         return self._stream.tell() if self._stream is not None else 0
 
     def abandon(self) -> int:
-        """After a write failed (a full disk): drop the file as it is (the reader and `repair` take what it
-        holds); the next write opens another. Returns the messages lost (those since the last flush)."""
+        """After a write failed (a full disk): drop the file as it is, unfinished, noted in `abandoned` (the
+        reader and `repair` take what it holds); the next write opens another. Returns the messages lost
+        (those since the last flush)."""
         stream, self._writer, self._stream = self._stream, None, None
         lost, self.pending = self.pending, 0
+        if stream is not None and self.path is not None:
+            self.abandoned.append(self.path)
         try:
             if stream is not None:
                 stream.close()

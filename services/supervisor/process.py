@@ -14,6 +14,12 @@ from services.bus.lifecycle import DUMP_STACKS
 from services.supervisor.profile import ServiceSpec
 
 
+# a run that lasted this long before it ended was no crash loop: the next failure counts as the first again
+# (its backoff from the start, its max_restarts whole), as Kubernetes resets a container's backoff after
+# ten minutes of running. `restarts` (what `dogged ps` shows) still counts them all.
+HEALTHY_S = 600.0
+
+
 class ManagedProcess:
     def __init__(self, spec: ServiceSpec, command: list[str], log_dir: Path, echo: bool = True):
         self.spec, self.command, self.echo = spec, command, echo
@@ -22,6 +28,7 @@ class ManagedProcess:
         self.proc: subprocess.Popen | None = None
         self.state = "new"           # starting | ready | backoff | failed | exited | stopped
         self.restarts = 0
+        self.in_a_row = 0  # restarts since the last run that lasted HEALTHY_S: what backoff and max_restarts count
         self.started_at = 0.0
         self.restart_at = 0.0
         self.died_at = 0.0  # when the supervisor saw it exit (monotonic)
@@ -70,18 +77,22 @@ class ManagedProcess:
         if code is not None:
             self.last_exit = code
             self._line(f"--- exited with {code}")
+            if time.monotonic() - self.started_at >= HEALTHY_S:
+                self.in_a_row = 0
         return code
 
     def should_restart(self, code: int) -> bool:
         policy = self.spec.restart
         wanted = policy == "always" or (policy == "on-failure" and code != 0)
-        return wanted and self.restarts < self.spec.max_restarts
+        return wanted and self.in_a_row < self.spec.max_restarts
 
     def schedule_restart(self) -> None:
-        delay = min(30.0, self.spec.backoff_s * (2 ** self.restarts))
+        delay = min(30.0, self.spec.backoff_s * (2 ** self.in_a_row))
         self.restarts += 1
+        self.in_a_row += 1
         self.state, self.restart_at = "backoff", time.monotonic() + delay
-        self._line(f"--- restart {self.restarts}/{self.spec.max_restarts} in {delay:.1f} s")
+        self._line(f"--- restart {self.in_a_row}/{self.spec.max_restarts} in {delay:.1f} s"
+                   + (f" ({self.restarts} in all)" if self.restarts > self.in_a_row else ""))
 
     def not_ready(self) -> None:
         """It outlived its ready_timeout_s without becoming ready: stopped, then restarted or failed as a

@@ -1,0 +1,104 @@
+"""A soaked run's recordings checked once the profile has stopped: every file opens in the mcap CLI (where
+it is installed; else in mcap's own Python reader, as tests/test_recorder_mcap.py reads them) and in
+`dogged replay`, alone and as the whole run; which stretches of the run are missing from them outside the
+faults."""
+from __future__ import annotations
+
+import contextlib
+import io
+import shutil
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from mcap.reader import make_reader
+
+from services.replay.cli import replay_main
+from services.recording.reader import is_finished
+
+
+@dataclass
+class FileCheck:
+    name: str
+    mb: float
+    finished: bool            # its recorder finished it (MCAP's closing magic)
+    opens: bool               # the mcap CLI's doctor, or mcap's reader, read it whole
+    messages: int
+    replays: bool             # `dogged replay FILE` exited 0
+    said: str = ""            # why not, when it does not
+
+
+@dataclass
+class RecordingsCheck:
+    files: list[FileCheck] = field(default_factory=list)
+    run_replays: bool = False  # `dogged replay` of the run's folder
+    run_said: str = ""
+    reader: str = ""           # "mcap CLI" or "mcap Python reader"
+
+    @property
+    def all_open(self) -> bool:
+        return bool(self.files) and all(f.opens and f.replays for f in self.files) and self.run_replays
+
+
+def opens_in_mcap(path: Path) -> tuple[bool, int, str]:
+    """(opens, messages, why not) as the mcap CLI's `doctor` says where it is installed, else as mcap's own
+    reader reads the file (its summary, then every message)."""
+    cli = shutil.which("mcap")
+    if cli:
+        done = subprocess.run([cli, "doctor", str(path)], capture_output=True, text=True, timeout=300)
+        return done.returncode == 0, -1, (done.stdout + done.stderr).strip()[-300:]
+    try:
+        with open(path, "rb") as f:
+            return True, sum(1 for _ in make_reader(f).iter_messages()), ""
+    except Exception as err:  # noqa: BLE001 - whatever mcap raises, the file does not open
+        return False, 0, f"{type(err).__name__}: {err}"[:300]
+
+
+def replays(run: Path, scratch: Path) -> tuple[bool, str]:
+    """`dogged replay RUN` (its default learner), in this process: whether it exited 0, and its last words."""
+    said = io.StringIO()
+    with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+        try:
+            code = replay_main([str(run), "--plot", str(scratch / "compare.png")])
+        except Exception as err:  # noqa: BLE001 - a replay that raises does not open the file
+            code, _ = 1, said.write(f"{type(err).__name__}: {err}")
+    return code == 0, said.getvalue().strip().splitlines()[-1][:300] if said.getvalue().strip() else ""
+
+
+def check(folder: Path, scratch: Path) -> RecordingsCheck:
+    scratch.mkdir(parents=True, exist_ok=True)
+    out = RecordingsCheck(reader="mcap CLI" if shutil.which("mcap") else "mcap Python reader")
+    for path in sorted(folder.glob("*.mcap")):
+        opens, messages, why = opens_in_mcap(path)
+        replayed, said = replays(path, scratch)
+        out.files.append(FileCheck(path.name, round(path.stat().st_size / 1e6, 3), is_finished(path), opens, messages,
+                                   replayed, why if not opens else said if not replayed else ""))
+    out.run_replays, out.run_said = replays(folder, scratch)
+    return out
+
+
+def missing_stretches(observed: np.ndarray, recorded: np.ndarray, faults: list[tuple[float, float]],
+                      period: float) -> dict:
+    """Of the inputs the run published (their stamps, as an observer saw them), the stretches whose every
+    input is missing from the recording: the longest outside every fault window (its seconds, and the stamp
+    it begins at), and the longest inside one; a stretch of n inputs lasts n periods."""
+    observed = np.unique(observed)
+    missing = ~np.isin(observed, recorded)
+    out = {"outside_s": 0.0, "outside_at": None, "inside_s": 0.0}
+    i = 0
+    while i < len(observed):
+        if not missing[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < len(observed) and missing[j + 1]:
+            j += 1
+        first, last = observed[i], observed[j]
+        seconds = round(float(last - first) + period, 3)
+        if any(start <= last and first <= end for start, end in faults):
+            out["inside_s"] = max(out["inside_s"], seconds)
+        elif seconds > out["outside_s"]:
+            out["outside_s"], out["outside_at"] = seconds, float(first)
+        i = j + 1
+    return out
