@@ -152,6 +152,11 @@ def identity_for_connecting(endpoint: str) -> tuple[str, Path, str, list[str]] |
     return record["router"], folder, cn, roster
 
 
+# the page's token for as long as its profile runs: `dogged up` makes one and gives it to its ui, so a ui
+# restarted (killed, crashed) asks the same, and a page a person has open reconnects by itself
+PAGE_TOKEN_ENV = "DOGGED_PAGE_TOKEN"
+
+
 def note_page(port: int, address: str) -> Path | None:
     """Keep a page's address with its token where only this user reads it; None if the folder is not
     this user's alone (then the console of `dogged up` is the one place it is shown)."""

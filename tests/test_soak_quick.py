@@ -44,9 +44,13 @@ def test_every_recording_opens_and_replays_even_those_a_full_disk_cut(profile):
 
 def test_every_killed_service_comes_back(profile):
     assert {"router", "recorder"} <= set(profile["kills"])
-    assert profile["kills_not_back"] == [], profile
+    assert profile["kills_not_back"] == [] and profile["teachers_back_switched_wrong"] == [], profile
     for service in set(profile["kills"]) & set(profile["restarts"]):
         assert profile["restarts"][service] >= profile["kills"].count(service), (service, profile["restarts"])
+
+
+def test_the_page_left_open_is_online_at_the_end(profile):
+    assert profile["page"].get("link") in (None, "online")  # (None: no chromium here, no page)
 
 
 def test_the_stranger_gets_nothing(profile):

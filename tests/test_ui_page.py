@@ -285,3 +285,15 @@ def test_the_learner_is_hot_swapped_from_the_page(live):
     wait_until(lambda: page.locator(f'tr[data-service="main/learner/{new}"] td.alive').count() == 1, 15,
                f"{new} listed alive")
     assert run.ps()[new]["state"] == "ready"
+
+
+def test_the_ui_killed_and_restarted_the_open_page_reconnects(live):
+    """(last: the ui restarts.) Before issue 31's soak found it, a restarted ui made a new token and the open
+    page was refused (401) every second for as long as it stayed open."""
+    run, page, _, _, _ = live
+    pid = run.ps()["ui"]["pid"]
+    os.kill(pid, signal.SIGKILL)
+    wait_until(lambda: page.text_content("#link") == "offline", 15, "the page offline")
+    wait_until(lambda: page.text_content("#link") == "online", 90, "the page online again")
+    wait_until(lambda: ears(page) in ("teacher", "student", "unsure"), 30, "the ears shown again")
+    assert run.ps()["ui"]["pid"] != pid

@@ -30,6 +30,8 @@ from services.own_identities import home
 
 SWAP_TRIES, SWAP_AGAIN_S = 3, 5.0  # a swap that failed (the router just killed, say) is asked again
 SWITCH_HEARD_S = 2.5  # after a switch, by when the arbitrator's status says who teaches
+SWITCH_WINDOW_S = 15.0  # a switch is put again only this soon after it was put (later, keeping it is the system's)
+KEPT_CHECK_S = 4.0  # after a killed teacher is back, by when its switch must be as it was
 BURST_CASES = 1000
 SETTLED_S = 3.0  # after a burst, before the statuses that must show nothing got through are read
 
@@ -41,6 +43,7 @@ class Kill:
     pid: int
     token: str
     back_at: float | None = None  # its liveliness token declared again
+    kept_switch: bool | None = None  # a teacher: back teaching as it was (the supervisor restores the switch)
     new_pid: int | None = None    # `dogged ps` showed it ready with another pid
 
 
@@ -85,6 +88,7 @@ class Driver:
         self.rows: list[Row] = []
         self.kills: list[Kill] = []
         self.swaps: list[Swap] = []
+        self.swaps_due: list[tuple[str, int, float]] = []  # (spec, try, not before): one at a time, in order
         self.bursts: list[Burst] = []
         self.fills: list[list] = []  # [filled at, freed at, recording again at]
         self.cuts: list[list] = []   # [cut at, healed at]
@@ -120,10 +124,7 @@ class Driver:
             time.sleep(0.05)
 
     def pending(self) -> bool:
-        return any(s.end is None for s in self.swaps) or any(not b.result for b in self.bursts)
-
-    def later(self, event: Event, seconds: float) -> None:
-        self._queue = sorted(self._queue + [Event(time.time() - self.t0 + seconds, event.kind, event.arg)])
+        return bool(self.swaps_due) or any(s.end is None for s in self.swaps) or any(not b.result for b in self.bursts)
 
     def do(self, e: Event) -> None:
         if e.kind == "teach":
@@ -139,7 +140,7 @@ class Driver:
         elif e.kind == "drive" and self.rig.person is not None:
             self.driving_until = time.time() - self.t0 + e.arg[0]
         elif e.kind == "swap":
-            self.swap(e)
+            self.swaps_due.append((e.arg[0], 1, 0.0))
         elif e.kind == "kill":
             self.kill(e.arg[0])
         elif e.kind == "stranger":
@@ -167,7 +168,8 @@ class Driver:
         cut = bool(self.cuts) and self.cuts[-1][1] is None
         for teacher, (on, at) in list(self.wanted.items()):
             teaching = self.watch.teaching(at + SWITCH_HEARD_S)
-            if teaching is None or (cut and teacher == self.rig.teachers[1]) or (teacher in teaching) == on:
+            if teaching is None or time.time() - at > SWITCH_WINDOW_S or (cut and teacher == self.rig.teachers[1]) \
+                    or (teacher in teaching) == on:
                 continue
             self.failed_switches += 1
             self.log(f"{time.time() - self.t0:7.1f} s: {teacher} still {'off' if on else 'on'}: switched again")
@@ -189,15 +191,12 @@ class Driver:
         for kill in self.kills:
             if kill.back_at is None:
                 kill.back_at = self.watch.back_at(kill.token, kill.at)
-        for swap in self.swaps:
-            if swap.end is None and swap.proc.poll() is not None:
-                swap.end, swap.ok = time.time(), swap.proc.returncode == 0
-                swap.said = (swap.proc.stdout.read().strip().splitlines() or [""])[-1][:300]
-                self.log(f"{swap.at - self.t0:7.1f} s: swap to {swap.spec}: {'ok' if swap.ok else 'FAILED'}: "
-                         f"{swap.said}")
-                if not swap.ok and swap.tries < SWAP_TRIES:  # as a person would: again, a little later
-                    self.later(Event(0.0, "swap", (swap.spec, swap.tries + 1)), SWAP_AGAIN_S)
-        for fill in self.fills:
+            elif kill.kept_switch is None and kill.service in self.wanted and self.wanted[kill.service][1] < kill.at:
+                teaching = self.watch.teaching(kill.back_at + KEPT_CHECK_S)
+                if teaching is not None:
+                    kill.kept_switch = (kill.service in teaching) == self.wanted[kill.service][0]
+        self.tend_swaps()
+        for fill in self.fills:  # the recorder recording again: its status without an error, after the free
             if fill[1] is not None and fill[2] is None:
                 status = self.watch.taken.statuses.get("recorder/recorder")
                 if status and status[1] > fill[1] + 1.0 and not status[0].state.get("error"):
@@ -205,17 +204,27 @@ class Driver:
         for burst in self.bursts:
             self.collect(burst)
 
+    def tend_swaps(self) -> None:
+        """The swap under way collected when done (a failed one asked again, first); the next one started."""
+        for swap in self.swaps:
+            if swap.end is None and swap.proc.poll() is not None:
+                swap.end, swap.ok = time.time(), swap.proc.returncode == 0
+                swap.said = (swap.proc.stdout.read().strip().splitlines() or [""])[-1][:300]
+                self.log(f"{swap.at - self.t0:7.1f} s: swap to {swap.spec}: {'ok' if swap.ok else 'FAILED'}: "
+                         f"{swap.said}")
+                if not swap.ok and swap.tries < SWAP_TRIES:  # as a person would: again, a little later
+                    self.swaps_due.insert(0, (swap.spec, swap.tries + 1, time.time() + SWAP_AGAIN_S))
+        if self.swaps_due and self.swaps_due[0][2] <= time.time() and all(s.end is not None for s in self.swaps):
+            self.swap(*self.swaps_due.pop(0)[:2])
+
     # --- events that take a while -----------------------------------------------------------------
-    def swap(self, e: Event) -> None:
-        if any(s.end is None for s in self.swaps):
-            self.later(e, 5.0)
-            return
+    def swap(self, spec: str, tries: int) -> None:
         serving = self.watch.serving_learner()
         command = [sys.executable, "-m", "services.cli", "--connect", self.rig.run.endpoint, "swap", "learner",
-                   e.arg[0]] + (["--service", serving] if serving else [])
+                   spec] + (["--service", serving] if serving else [])
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                 cwd=self.rig.run.run_dir)
-        self.swaps.append(Swap(time.time(), e.arg[0], proc, tries=e.arg[1] if len(e.arg) > 1 else 1))
+        self.swaps.append(Swap(time.time(), spec, proc, tries))
 
     def kill(self, service: str) -> None:
         name = (self.watch.serving_learner() or "learner") if service == "learner" else service

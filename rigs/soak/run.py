@@ -22,6 +22,7 @@ from rigs.harness import free_port
 # each profile, so between them every registered learner serves (gp and per-output are the two wired)
 OTHERS = {"mirroring": ["knn", "lwpr", "sogp", "gp"], "ballseek": ["sogp", "per-output:base=gp", "knn", "lwpr"]}
 AFTER_S = 2.0  # a fault's window lasts this long past its end (its last ticks and samples)
+BEFORE_S = 1.0  # a kill's begins this long before it: a recorder killed loses its last chunk (flush_s, 0.5 s)
 NEVER_BACK_S = 10.0  # the window of a kill whose service never came back (a swap retired it meanwhile)
 
 
@@ -45,9 +46,9 @@ def disk_mb(p: Pace, quick: bool) -> int:
 
 
 def fault_windows(d: Driver) -> dict[str, list[tuple[float, float]]]:
-    """(start, end) of each fault, time.time(): a kill until its service is back; the full disk until the
-    recorder records again; a cut until its link is healed."""
-    kills = [(k.at, (k.back_at or k.at + NEVER_BACK_S) + AFTER_S) for k in d.kills]
+    """(start, end) of each fault, time.time(): a kill (from just before it) until its service is back; the
+    full disk until the recorder records again; a cut until its link is healed."""
+    kills = [(k.at - BEFORE_S, (k.back_at or k.at + NEVER_BACK_S) + AFTER_S) for k in d.kills]
     fills = [(f[0], (f[2] or (f[1] or f[0]) + 15.0) + AFTER_S) for f in d.fills]
     cuts = [(c[0], (c[1] or c[0]) + AFTER_S) for c in d.cuts]
     return {"kills": kills, "fills": fills, "cuts": cuts}
@@ -128,6 +129,7 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults) -> d
         "kills_back": len(recovered), "kills_replaced": len(replaced),
         "kills_new_pid": sum(1 for k in d.kills if k.new_pid),
         "kills_not_back": [k.service for k in d.kills if k.back_at is None and k not in replaced],
+        "teachers_back_switched_wrong": [k.service for k in d.kills if k.kept_switch is False],
         "back_after_kill_s_max": round(max((k.back_at - k.at for k in recovered), default=0.0), 2),
         "swaps": [s.spec for s in d.swaps if s.tries == 1], "swaps_ok": sum(1 for s in d.swaps if s.ok),
         "swaps_tried_again": sum(1 for s in d.swaps if s.tries > 1),

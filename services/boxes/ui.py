@@ -20,12 +20,17 @@ import zenoh
 from bus_schema import InstanceKeys, check_name
 from services.bus.config import add_bus_args, config_from_args, own_profile
 from services.bus.runtime import BoxRuntime
-from services.own_identities import forget_page, note_page
+from services.own_identities import PAGE_TOKEN_ENV, forget_page, note_page
 from services.security import is_loopback
 from services.ui.bridge import FRAME_HEADER, Bridge
 from services.ui.server import UiServer
 from services.ui.tls import TlsError, server_tls
 from services.ui.teleop import TELEOP_REFRESH_S
+
+
+def page_token() -> str:
+    """The token the page's socket asks: its profile's (the same across this ui's restarts), else a new one."""
+    return os.environ.get(PAGE_TOKEN_ENV) or secrets.token_urlsafe(18)
 
 
 def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, port: int, name: str = "ui",
@@ -34,7 +39,7 @@ def main(conf: zenoh.Config, instance: str, robot: str, person: str, host: str, 
     needs the token, which this user finds in their own folder (services/own_identities.py)."""
     box, done = BoxRuntime(conf, InstanceKeys(instance), "ui", name), threading.Event()
     log = box.log
-    token = None if is_loopback(f"tcp/{host}:{port}") and not secured else secrets.token_urlsafe(18)
+    token = None if is_loopback(f"tcp/{host}:{port}") and not secured else page_token()
     if token and tls is None:
         log.warning("--plain-http off loopback: the token and all the page sends cross the network in clear")
     with box:

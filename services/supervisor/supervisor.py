@@ -11,6 +11,7 @@ import collections
 import logging
 import math
 import os
+import secrets
 import sys
 import time
 from dataclasses import replace
@@ -23,7 +24,7 @@ from services.bus.config import zenoh_config
 from services.bus.inbox import Inbox
 from services.bus.lifecycle import StopFlag
 from services.boxes.router import CANNOT_LISTEN, ROUTING
-from services.own_identities import NotPrivate, announce, withdraw
+from services.own_identities import PAGE_TOKEN_ENV, NotPrivate, announce, withdraw
 from services.realtime import hold_low_latency
 from services.refusals import Refusals
 from services.security import ROSTER_ENV, identities_in
@@ -59,6 +60,7 @@ class Supervisor(Verbs):
         self.stop_flag: StopFlag | None = None     # Ctrl-C or SIGTERM, while run() runs
         self.swapping = False                      # a swap is under way: other verbs wait their turn
         self.up_since, self.announced = time.monotonic(), False
+        self.page_token = secrets.token_urlsafe(18)  # the pages' (PAGE_TOKEN_ENV), for as long as this runs
         # the identities access control knows, read once: every process started, restarted or swapped in
         # enforces this same roster; a certificate made later is refused until the profile restarts
         self.roster = identities_in(profile.security) if profile.security is not None else []
@@ -86,6 +88,8 @@ class Supervisor(Verbs):
 
     def add(self, spec: ServiceSpec, command: list[str] | None = None) -> ManagedProcess:
         spec = self.secured(spec, self.profile.identity(spec))
+        if spec.box == "ui":  # restarted, it asks the same token: a page a person has open reconnects
+            spec = replace(spec, env={**spec.env, PAGE_TOKEN_ENV: self.page_token})
         proc = self.process(spec, command or self.command_for(spec))
         proc.ready_key = InstanceKeys(spec.instance).alive(spec.role, spec.name)
         self.procs[spec.name] = proc
