@@ -11,6 +11,8 @@ import pytest
 
 from rigs.harness import REPO
 
+pytestmark = pytest.mark.live  # the soak is a process of its own, with the profiles' processes
+
 RSS_MB_BOUND = 2000.0  # a service with its spawned processes (the GP's fits: ~550 MB), with room to spare
 GREW_MB_BOUND = 300.0  # in its minute, after its first fifth (a GP warming: ~100 MB)
 FDS_GREW_BOUND = 100
