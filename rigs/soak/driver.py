@@ -27,6 +27,7 @@ from rigs.soak.watch import LoopWatch
 from bus_schema import router_token
 from services.certificates import make_certs
 from services.own_identities import home
+from services.waiting import poll
 
 SWAP_TRIES, SWAP_AGAIN_S = 3, 5.0  # a swap that failed (the router just killed, say) is asked again
 SWITCH_HEARD_S = 2.5  # after a switch, by when the arbitrator's status says who teaches
@@ -328,15 +329,13 @@ class Driver:
             self.rig.run.teach(False)
         except TimeoutError as err:
             self.log(f"the end: {err}")
-        end = time.time() + timeout
-        while time.time() < end:
-            time.sleep(1.0)
+
+        def caught_up() -> bool:
             self.watch.take()
             serving = self.watch.serving_learner()
-            held = self.watch.counter(f"learner/{serving}", "pairs")
-            if serving and held >= self.watch.taught():
-                time.sleep(1.5)  # one more status of each, after the last pair
-                break
+            return bool(serving) and self.watch.counter(f"learner/{serving}", "pairs") >= self.watch.taught()
+        if poll(caught_up, timeout, 1.0):
+            time.sleep(1.5)  # one more status of each, after the last pair
         return self.sample()
 
 

@@ -139,6 +139,10 @@ class PlatformLoop:
                 "last_unanswered": (list(self.last_unanswered) + in_window)[-1000:],
                 "held": self.counts["held"], "applied": self.counts["applied"], "rejected": self.rejects.total}
 
+    def tick_answered(self) -> bool:
+        """Whether the newest tick has its command."""
+        return self.latest is not None and self.latest.tick >= self.tick
+
     def wait(self) -> float:
         wake = self.due_at if self.after_tick_at is None else min(self.due_at, self.after_tick_at)
         return max(0.0, wake - time.monotonic())
@@ -186,7 +190,7 @@ def run_ticks(loop: PlatformLoop, handlers: dict, rate_hz: float, sim_hz: float,
         waiting = loop.tick == 0 and (not arbitrators or now < settled_at)  # hold still, lose no tick
         if waiting:
             loop.due_at = now + 0.05
-        answered = loop.latest is not None and loop.latest.tick >= loop.tick
+        answered = loop.tick_answered()
         if max_ticks and loop.tick >= max_ticks and (answered or now >= loop.due_at + watchdog):
             break  # the last tick is answered (or will never be): done
         if not waiting and (now >= loop.due_at or (period is None and answered)):
@@ -208,8 +212,7 @@ def run_ticks(loop: PlatformLoop, handlers: dict, rate_hz: float, sim_hz: float,
                 loop.on_command(key, raw)
             else:
                 handlers[tag](key, raw)
-        if loop.after_tick_at is not None and (time.monotonic() >= loop.after_tick_at or
-                                               (loop.latest is not None and loop.latest.tick >= loop.tick)):
+        if loop.after_tick_at is not None and (loop.tick_answered() or time.monotonic() >= loop.after_tick_at):
             loop.finish_tick()
 
 

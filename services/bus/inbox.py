@@ -95,9 +95,10 @@ class Inbox:
         """Items queued now (a service that stops takes these, not a flood that goes on)."""
         return len(self._items)
 
-    def drain(self, timeout: float):
-        """What came in: waits up to `timeout` for a first item, then yields every item already queued."""
-        item = self.get(timeout)
+    def drain(self, timeout):
+        """What came in: waits up to `timeout` for a first item, then yields every item already queued.
+        `timeout` may be a function, asked as the first item is waited for (a box's wait until its deadline)."""
+        item = self.get(timeout() if callable(timeout) else timeout)
         while item is not None:
             yield item
             item = self.get_nowait()

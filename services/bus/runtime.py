@@ -135,14 +135,13 @@ class BoxRuntime:
     def batches(self, wait, report=None):
         """Until stopped: each batch of events that came within `wait` seconds (a number, or a function
         that says how long); the status between batches. report() -> (counters, state) of the box's own."""
-        wait_for = wait if callable(wait) else (lambda: wait)
-        get, status = self.inbox.get, self.status
+        drain, status = self.inbox.drain, self.status
 
         def full_report() -> tuple[dict, dict]:
             return self.status_report(report)
         self.announce()
         while not self.stop:
-            yield _batch(get, wait_for)
+            yield drain(wait)
             if status is not None:
                 status.maybe_publish(full_report)
 
@@ -150,11 +149,3 @@ class BoxRuntime:
         """What the status says: the box's counters and its report's, `rejected`, `inbox_dropped`; its state."""
         counters, state = report() if report is not None else ({}, {})
         return {**self.counts, **counters, "rejected": self.rejects.total, "inbox_dropped": self.inbox.dropped}, state
-
-
-def _batch(get, wait_for):
-    """The events of one batch, as Inbox.drain yields them, the wait asked for as the body starts on them."""
-    item = get(wait_for())
-    while item is not None:
-        yield item
-        item = get(0.0)
