@@ -18,6 +18,7 @@ import zenoh
 
 from bus_schema import Command, InstanceKeys, Input, PairBatch, Proposal, SelectLearner, TrainingPair, encode
 from services.arbitration.algorithm2 import decide, trains
+from services.arbitration.recent_pairs import RecentPairs
 from services.arbitration.strategies import STRATEGIES, make_strategy
 from services.arbitration.ticks import TickTable
 from services.boxes.common import Membership
@@ -41,7 +42,7 @@ class Arbitrator:
         self.members = Membership(self.keys)
         self.selected = learner
         self.epoch, self.seq = uuid.uuid4().hex[:12], 0
-        self.recent: collections.deque[TrainingPair] = collections.deque(maxlen=recent)
+        self.recent = RecentPairs(recent, spaces.input.dims, spaces.output.dims)
         self.missed: collections.Counter[str] = collections.Counter()  # deadlines missed in a row, per member
         self.last_command = np.zeros(spaces.output.dims)
         self.rejects, self.counts = box.rejects, box.counts
@@ -137,12 +138,7 @@ class Arbitrator:
                                                             "from and to must be integers"))
             query.reply_err(b"from and to must be integers")
             return
-        rows = [p for p in self.recent if first <= p.seq <= last]
-        xs = np.array([p.x for p in rows]).reshape(-1, self.dims["x"])
-        ys = np.array([p.y for p in rows]).reshape(-1, self.dims["y"])
-        masks = np.array([np.ones(self.dims["y"]) if p.mask is None else p.mask for p in rows]).reshape(ys.shape)
-        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, rows[0].seq if rows else first, xs, ys,
-                                                             masks)))
+        query.reply(self.keys.train_recent, encode(PairBatch(self.epoch, *self.recent.rows(first, last))))
 
     # --- the loop ---------------------------------------------------------------------------
     def wait(self) -> float:
@@ -199,7 +195,7 @@ class Arbitrator:
     def publish_pair(self, tick, x, y, source, mask=None):
         self.seq += 1
         pair = TrainingPair(self.epoch, self.seq, tick, x, np.asarray(y, dtype=np.float64), source, mask)
-        self.recent.append(pair)
+        self.recent.append(self.seq, x, pair.y, mask)
         self.train_pub.put(encode(pair))
         self.counts["train_pairs"] += 1
 
