@@ -163,6 +163,42 @@ def children_of(pid: int) -> list[int]:
 
 
 @pytest.mark.live
+def test_served_live_a_batch_rebuilds_each_factor_once_and_answers_as_one_taught_a_row_at_a_time():
+    """learn_many served live (a swap's new learner catching up: services.boxes.learner) keeps each leaf's
+    factor stale until the batch ends; then every factor is whole, and the answers are those of a learner
+    taught the rows one at a time (whose refits surprise also brings)."""
+    task = draw_task(5, *UNIT, relevant=(2, 2), taught=(1, 1))
+    xs = task.stream(20.0, 30.0, "trajectory")
+    ys = task.target(xs)
+    batch = make_learner("gp", task.n_in, task.n_out, seed=0, memory=100)
+    rows = make_learner("gp", task.n_in, task.n_out, seed=0, memory=100)
+    batch.serve_live()
+    calls = {"_rebuild": 0, "_thin": 0}
+    def counting(name, original):
+        def counted():
+            calls[name] += 1
+            return original()
+        return counted
+    for leaf in batch.parts:
+        for name in calls:
+            setattr(leaf, name, counting(name, getattr(leaf, name)))
+    batch.learn_many(xs, ys)
+    for x, y in zip(xs, ys):
+        rows.learn_one(x, y)
+    assert calls["_thin"] > 20 and calls["_rebuild"] < calls["_thin"] / 4, calls  # not at each thinning
+    for leaf in batch.parts:
+        assert not leaf._stale and not leaf._deferring
+        chol = leaf._chol[:leaf._m, :leaf._m].copy()
+        leaf._rebuild()
+        assert np.allclose(chol, leaf._chol[:leaf._m, :leaf._m])  # the factor of what it remembers
+    probe = task.stream(10.0, 30.0, "trajectory")[::7]
+    truth = task.target(probe)
+    err_batch = np.sqrt(np.mean((batch.predict_many(probe).y - truth) ** 2))
+    err_rows = np.sqrt(np.mean((rows.predict_many(probe).y - truth) ** 2))
+    assert err_batch < max(2 * err_rows, 0.02), (err_batch, err_rows)
+
+
+@pytest.mark.live
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
 def test_the_fitting_processes_go_when_their_learner_is_killed():
     """Served live, fits run in processes of their own (issue 34); killed, the learner's process must not leave

@@ -4,10 +4,16 @@ It answers each newest input with a prediction and a confidence, and learns ever
 (lossless, numbered (epoch, seq): a gap is filled from the arbitrator's recent pairs). It serves
 its snapshot and its history so a replacement can be warmed (hot-swap), and with --state-dir it
 logs every pair to a file and replays it after a crash, so a restart forgets nothing.
+
+What it has to learn at once (the log after a restart, the old learner's history at a hot-swap) it
+learns in slices between answers, saying it is unsure (confidence 0) until it has caught up: an hour
+of mirroring took a GP minutes to learn again, and a learner that learned it all before serving was
+stopped at its ready timeout, again and again, for good (benchmarks/soak.py).
 """
 from __future__ import annotations
 
 import argparse
+import collections
 import math
 import time
 from pathlib import Path
@@ -37,7 +43,10 @@ class LearnerNode:
         self.output_space = output_space  # every proposal is clipped to it
         self.dims = {"x": model.n_in, "y": model.n_out, "mask": model.n_out}
         self.input_dims = {"x": model.n_in}
-        self.epoch, self.seq = "", 0
+        self.epoch, self.seq = "", 0  # the last pair taken in (logged; learned once the backlog is)
+        self.backlog: collections.deque = collections.deque()  # (x, y, mask) taken in, yet to be learned
+        self._catching_up_since = None  # monotonic, while a backlog is learned
+        self.in_bulk = 0  # the backlog's first rows a swap warms with: learned in chunks, not between answers
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
@@ -59,6 +68,12 @@ class LearnerNode:
             self.answer(newest)
         for pair in pairs:
             self.on_pair(pair)
+        if self.backlog:
+            self.catch_up(CATCH_UP_SLICE_S)
+
+    def wait(self) -> float:
+        """How long the loop may wait for an event: not at all while a backlog is to be learned."""
+        return 0.0 if self.backlog else 0.1
 
     # --- learning ---------------------------------------------------------------------------
     def learn(self, x, y, mask) -> None:
@@ -66,7 +81,10 @@ class LearnerNode:
             self.counts["partial_pairs_learned_whole"] += 1
 
     def incorporate(self, pair: TrainingPair):
-        self.learn(pair.x, pair.y, pair.mask)
+        if self.backlog:
+            self.backlog.append((pair.x, pair.y, pair.mask))  # in order, behind what is yet to be learned
+        else:
+            self.learn(pair.x, pair.y, pair.mask)
         self.pairs.append(pair)
         self.epoch, self.seq = pair.epoch, pair.seq
         self.counts["learned"] += 1
@@ -132,11 +150,46 @@ class LearnerNode:
             self.rejects(key, err)
             return None
 
+    def catch_up(self, budget_s: float) -> None:
+        """Learn the backlog for about budget_s (at least one pair), oldest first."""
+        if self._catching_up_since is None:
+            self._catching_up_since = time.monotonic()
+            self.log.info("learning %d pairs between answers (unsure until then)", len(self.backlog))
+        end = time.monotonic() + budget_s
+        while self.in_bulk:  # not serving yet (the swap selects it once caught up): whole rows by learn_many
+            rows = [self.backlog.popleft() for _ in range(min(BULK_ROWS, self.in_bulk))]
+            self.in_bulk -= len(rows)
+            whole = [r for r in rows if r[2] is None]
+            if len(whole) == len(rows):
+                self.model.learn_many(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]))
+            else:
+                for x, y, mask in rows:
+                    self.learn(x, y, mask)
+            if time.monotonic() >= end:
+                break
+        while self.backlog and not self.in_bulk:
+            x, y, mask = self.backlog.popleft()
+            self.learn(x, y, mask)
+            if time.monotonic() >= end:
+                break
+        if not self.backlog:
+            took = time.monotonic() - self._catching_up_since
+            self.counts["caught_up_s"] = round(took, 3)
+            self.log.info("caught up: %d pairs learned (%.1f s)", self.model.n_learned, took)
+            self._catching_up_since = None
+            self.box.status.publish_soon()
+
+    @property
+    def learned_seq(self) -> int:
+        """The seq of the last pair learned (the log's pairs are numbered without gaps up to self.seq)."""
+        return self.seq - len(self.backlog)
+
     # --- warming ----------------------------------------------------------------------------
     def replay(self, pairs: list[TrainingPair]):
-        for p in pairs:  # already in the pair log
-            self.learn(p.x, p.y, p.mask)
-            self.epoch, self.seq = p.epoch, p.seq
+        """An earlier run's log (already in the pair log): learned between answers, from the first."""
+        self.backlog.extend((p.x, p.y, p.mask) for p in pairs)
+        if pairs:
+            self.epoch, self.seq = pairs[-1].epoch, pairs[-1].seq
         self.counts["replayed"] = len(pairs)
 
     def ask_until(self, deadline: float, key, cls, parameters="", timeout=5.0):
@@ -154,10 +207,15 @@ class LearnerNode:
         snap = self.ask_until(deadline, self.keys.snapshot(old), Snapshot, timeout=10.0)
         if snap is None:
             return self.start_cold(f"learner {old} did not answer with a snapshot")
-        history = self.ask_until(deadline, self.keys.history(old), PairBatch, f"epoch={snap.epoch};upto={snap.seq}",
-                                 timeout=30.0)
-        if history is None or len(history.x) != snap.n_learned:
-            return self.start_cold(f"learner {old}'s history is incomplete")
+        # all it holds: the snapshot covers the first n_learned rows (up to seq), the rest it had yet to learn
+        history = self.ask_until(deadline, self.keys.history(old), PairBatch, f"epoch={snap.epoch}", timeout=30.0)
+        if history is None or history.epoch != snap.epoch:
+            return self.start_cold(f"learner {old}'s history did not come")
+        last = history.first_seq + len(history.x) - 1
+        covered = len(history.x) - (last - snap.seq)  # the rows its snapshot has learned
+        if covered != snap.n_learned:
+            return self.start_cold(f"learner {old}'s history ({len(history.x)} pairs to seq {last}) does not hold "
+                                   f"its snapshot's {snap.n_learned} (to seq {snap.seq})")
         restored = None
         if snap.learner_class == type(self.model).__name__:
             try:
@@ -172,22 +230,20 @@ class LearnerNode:
         if restored is not None:
             self.model = restored
             self.model.serve_live()
-            how = "snapshot"
+            how, start = "snapshot", covered
             self.counts["warmed_by_snapshot"] = 1
-        elif np.all(history.mask == 1):
-            self.model.learn_many(history.x, history.y)
-            how = f"training on {len(history.x)} pairs"
-        else:  # partial pairs: each trains only its taught outputs
-            for x, y, mask in zip(history.x, history.y, history.mask):
-                self.learn(x, y, mask)
-            how = f"training on {len(history.x)} pairs (some partial)"
-        first = snap.seq - len(history.x) + 1
+        else:
+            how, start = f"training on {len(history.x)} pairs", 0
         for i, (x, y, mask) in enumerate(zip(history.x, history.y, history.mask)):
             mask = None if np.all(mask == 1) else mask
-            self.pairs.append(TrainingPair(snap.epoch, first + i, -1, x, y, "history", mask))
-        self.epoch, self.seq = snap.epoch, snap.seq
+            self.pairs.append(TrainingPair(snap.epoch, history.first_seq + i, -1, x, y, "history", mask))
+            if i >= start:  # learned in chunks (catch_up), before the swap selects this learner
+                self.backlog.append((x, y, mask))
+        self.in_bulk = len(self.backlog)
+        self.epoch, self.seq = snap.epoch, last
         self.counts["warmed"] = len(history.x)
-        self.log.info("warmed from %s by %s (up to seq %d of epoch %s)", old, how, snap.seq, snap.epoch)
+        self.log.info("warmed from %s by %s (%d pairs to learn; to seq %d of epoch %s)", old, how, len(self.backlog),
+                      last, snap.epoch)
         return True
 
     def start_cold(self, why: str) -> bool:
@@ -201,15 +257,16 @@ class LearnerNode:
         y = self.output_space.clip(p.y)
         if not np.array_equal(y, p.y):
             self.counts["clipped"] += 1  # the learner's own bound is its taught range; the robot's is this
-        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, float(p.confidence),
-                                     learned=self.model.n_learned)))
+        confidence = 0.0 if self.backlog else float(p.confidence)  # not yet all it was taught: unsure
+        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, confidence, learned=self.model.n_learned)))
         self.counts["proposals"] += 1
 
     def on_query(self, query: zenoh.Query):
         key = str(query.key_expr)
         if key == self.keys.snapshot(self.name):
-            query.reply(key, encode(Snapshot(type(self.model).__name__, self.epoch, self.seq, len(self.pairs),
-                                             self.model.snapshot())))
+            # what the model has learned: the history's first rows up to learned_seq (the rest is its backlog)
+            query.reply(key, encode(Snapshot(type(self.model).__name__, self.epoch, self.learned_seq,
+                                             len(self.pairs) - len(self.backlog), self.model.snapshot())))
             return
         params = query.parameters
         problem = history_query_problem(params)
@@ -224,7 +281,8 @@ class LearnerNode:
         query.reply(key, encode(PairBatch(self.epoch, self.seq - len(self.pairs) + 1, *self.pairs.history(n))))
 
     def report(self):
-        counters = {"seq": self.seq, "pairs": len(self.pairs), "upkeep_under_way": int(self.model.upkeep_under_way)}
+        counters = {"seq": self.seq, "pairs": len(self.pairs), "backlog": len(self.backlog),
+                    "upkeep_under_way": int(self.model.upkeep_under_way)}
         return counters, {"learner": type(self.model).__name__, "epoch": self.epoch, "size": int(self.model.size),
                           "params": {k: v if isinstance(v, (int, float, str, bool)) else repr(v)
                                      for k, v in self.model.get_params().items()}}
@@ -238,6 +296,11 @@ def same_params(a, b) -> bool:
 # a hot-swap's new learner asks the old one again while it does not answer (killed mid-swap and restarted:
 # a cold start would lose every pair the arbitrator no longer holds); the swap waits for it (ready_timeout_s)
 WARM_WAIT_S, ASK_AGAIN_S = 30.0, 0.5
+# a backlog is learned this long at a time between answers: an input waits at most about this for its answer
+CATCH_UP_SLICE_S = 0.005
+# a swap's new learner, not serving yet, learns the old one's history this many rows to a learn_many (a GP served
+# live rebuilds its factor once a chunk: a quarter hour of mirroring's pairs in 28 s, not 35-40)
+BULK_ROWS = 256
 PLAUSIBLE_GAP = 65536  # the arbitrator's recent pairs: a longer jump in seq must be confirmed by it
 
 
@@ -272,14 +335,14 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
             return 1
         if saved:
             node.replay(saved)
-            box.log.info("replayed %d pairs from %s", len(saved), pairlog.path)
+            box.log.info("replaying %d pairs from %s between answers", len(saved), pairlog.path)
         elif warm_from:
             node.warm_from(warm_from)
         box.subscribe(box.keys.input, "input")
         box.queryable(box.keys.snapshot(name), "query")
         box.queryable(box.keys.history(name), "query")
         box.log.info("%s serving %d -> %d (%d pairs known)", learner, model.n_in, model.n_out, len(pairlog))
-        for batch in box.batches(0.1, node.report):
+        for batch in box.batches(node.wait, node.report):
             node.handle(batch)
         pairlog.close()
     return 0

@@ -105,6 +105,18 @@ class GP(Learner):
         rows = range(len(self._parts)) if parts is None else parts
         return [k for k in rows if np.all((x > self._reach_low[k]) & (x <= self._reach_high[k]))]
 
+    def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        """Rows in order, as learn_one would; served live, each leaf's factor is rebuilt once at the end
+        (gp_local.defer_factor), not per row, and a refit is due on schedule and on spread, not on surprise
+        (which needs each row's answer)."""
+        for part in self._parts:
+            part.defer_factor(True)
+        try:
+            super()._learn_many(xs, ys)
+        finally:
+            for part in self._parts:  # (leaves cut from a deferring one defer too)
+                part.defer_factor(False)
+
     def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
         for part in [self._parts[k] for k in self._reaching(x)]:
             part.learn_one(x, y)

@@ -87,6 +87,9 @@ class LocalGP(Refitting, Learner):
         # proposed_split
         self.may_split, self.proposed_split, self._split_check = False, None, 0
         self._factored = False  # chol and beta hold the memory's posterior
+        # in a batch learned live (gp.GP.learn_many): the factor is rebuilt once at its end, not updated per
+        # sample and per thinning (_stale meanwhile)
+        self._deferring = self._stale = False
         self._surprise_gap = SURPRISE_REFIT_GAP  # samples a surprise must wait since the last fit
         self._background, self._pending = False, None  # serve_live: fits in another process
         self._searching = None  # serve_live: a search for a split under way in the splitter's process
@@ -134,6 +137,9 @@ class LocalGP(Refitting, Learner):
         self._reserve(self._m + 1)
         m = self._m
         self._xs[m], self._ys[m], self._born[m] = x, y, self._y_count
+        if self._factored and self._deferring:
+            self._m, self._stale = m + 1, True  # no surprise weighed: the answer it would test is not built
+            return
         if not self._factored:
             self._m = m + 1
             # while every target taught has been the same the posterior is that constant, exactly: the
@@ -192,8 +198,19 @@ class LocalGP(Refitting, Learner):
             array = getattr(self, name)
             array[:len(keep)] = array[keep]
         self._m = len(keep)
-        if self._factored:
+        if self._factored and self._deferring:
+            self._stale = True
+        elif self._factored:
             self._rebuild()
+
+    def defer_factor(self, deferring: bool) -> None:
+        """Served live, a batch (gp.GP.learn_many) keeps the factor stale until it ends, then rebuilds it
+        once, instead of updating it per sample and rebuilding it at each thinning: the mirroring learner
+        took a quarter hour's 11,891 pairs in 28 s, against 35-40 s one at a time."""
+        self._deferring = deferring and self._background
+        if not deferring and self._stale:
+            self._rebuild()
+            self._answer_cache = None
 
     def remembered_inputs(self) -> np.ndarray:
         """A copy of the inputs remembered (m, n_in)."""
@@ -205,7 +222,7 @@ class LocalGP(Refitting, Learner):
         (`hyper`, or this fit's) until a fit of its own, started at once (gp.GP splits a leaf into two of these)."""
         order = rows[np.argsort(self._born[rows], kind="stable")]
         child = self.clone()
-        child._background = self._background
+        child._background, child._deferring = self._background, self._deferring
         k = len(order)
         child._reserve(k)
         child._xs[:k], child._ys[:k], child._born[:k] = self._xs[order], self._ys[order], np.arange(k)
@@ -240,7 +257,7 @@ class LocalGP(Refitting, Learner):
                     self._ratio *= 10.0
         self._chol[:m, :m] = chol
         self._beta[:m] = solve_triangular(chol, self._ys[:m] - self._hyper.mu, lower=True)
-        self._factored = True
+        self._factored, self._stale = True, False
 
     def _factor_live(self) -> np.ndarray:
         """The lower Cholesky factor of the kernel matrix plus noise over the memory: the matrix's lower triangle

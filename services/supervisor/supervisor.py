@@ -28,6 +28,7 @@ from services.own_identities import PAGE_TOKEN_ENV, NotPrivate, announce, withdr
 from services.realtime import hold_low_latency
 from services.refusals import Refusals
 from services.security import ROSTER_ENV, identities_in
+from services.supervisor.pair_logs import adopt_successor_log
 from services.supervisor.process import ManagedProcess
 from services.supervisor.profile import Profile, ServiceSpec
 from services.supervisor.verbs import Verbs
@@ -246,6 +247,9 @@ class Supervisor(Verbs):
         prof = self.profile
         if prof.low_latency and hold_low_latency(log):
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
+        for spec in prof.services:  # before any starts: a learner swapped in last run left the newest pairs
+            if spec.box == "learner":
+                adopt_successor_log(prof.state_dir_of(spec), spec.name)
         router_spec = self.secured(ServiceSpec("router", "router", "", restart="on-failure"), "router.router")
         if prof.security is not None:  # this process's own session, before it opens
             me = f"supervisor.{prof.name}"

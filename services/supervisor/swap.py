@@ -10,12 +10,12 @@ import argparse
 import dataclasses
 import logging
 import time
-from pathlib import Path
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, encode
 from services.boxes import learner as learner_box
 from services.bus.publishers import lossless_publisher, wait_matching
 from services.learners import parse_learner_spec
+from services.supervisor.pair_logs import set_aside_stale_log
 
 log = logging.getLogger("dogged.supervisor")
 
@@ -32,19 +32,6 @@ def _kept_args(args: tuple[str, ...]) -> list[str]:
             defining.add_argument(*action.option_strings, dest=action.dest, action="append")
     _, kept = defining.parse_known_args(list(args))
     return kept
-
-
-def _set_aside_stale_log(state_dir: Path | None, name: str) -> None:
-    """A pair log under the new learner's name is an earlier run's (swap numbers start again with each
-    `dogged up`): replayed, it would stand in for warming from the learner being replaced. It is kept,
-    renamed, not deleted."""
-    if state_dir is None:
-        return
-    log_file = state_dir / f"{name}.pairs"
-    if log_file.exists():
-        aside = log_file.with_name(f"{log_file.name}.{time.strftime('%Y%m%d-%H%M%S')}.earlier")
-        log_file.rename(aside)
-        log.warning("an earlier run's %s set aside as %s before the swap", log_file, aside.name)
 
 
 def select_learner(session, instance: str, learner: str) -> None:
@@ -71,7 +58,7 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     new_name = f"{stands_for}-s{sup.swap_count}"
     args = ("--learner", learner, *params, "--warm-from", old.spec.name, *_kept_args(old.spec.args))
     spec = dataclasses.replace(old.spec, name=new_name, args=args, stands_for=stands_for)
-    _set_aside_stale_log(sup.profile.state_dir_of(spec), new_name)
+    set_aside_stale_log(sup.profile.state_dir_of(spec), new_name)
     started = time.monotonic()
     new = sup.add(spec)
     sup.pump(session, lambda: new.state != "starting", spec.ready_timeout_s + 1.0)
@@ -82,6 +69,11 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
             else f"it exited with {new.last_exit}")
         return ControlReply(False, f"{new_name} does not serve: {why}; {old.spec.name} still serves "
                                    f"(see dogged logs {new_name})", {})
+    behind = _catch_up(sup, session, spec)
+    if behind:
+        sup.retire(new_name)
+        return ControlReply(False, f"{new_name} does not serve: {behind}; {old.spec.name} still serves "
+                                   f"(see dogged logs {new_name})", {})
     warm_s = time.monotonic() - started
     select_learner(session, spec.instance, new_name)
     if not sup.pump(session, lambda: sup.reports("arbitrator", "learner", new_name), 10.0):
@@ -91,6 +83,31 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
     return ControlReply(True, f"{new_name} ({spec_text}) serves in place of {old.spec.name}, "
                               f"{_how_warmed(sup.status_of(spec))} in {warm_s:.1f} s",
                         {"new": new_name, "old": old.spec.name})
+
+
+# a new learner learns the old one's history between answers (services.boxes.learner): the swap selects it once
+# it has caught up, waiting as long as it gains on its backlog, and no longer than this without a gain
+CATCH_UP_STALL_S = 30.0
+
+
+def _catch_up(sup, session, spec) -> str:
+    """Waits until the new learner's status says it has learned all it was given: '' then, else why not."""
+    def backlog() -> int | None:
+        return sup.status_of(spec).get("counters", {}).get("backlog")
+    least = None
+    while True:
+        def gains(least=least) -> bool:
+            now = backlog()
+            return now is not None and (least is None or now < least)
+        gained = sup.pump(session, gains, CATCH_UP_STALL_S)
+        if sup.stopping:
+            return "the profile is stopping"
+        if not gained:
+            return (f"it did not say its backlog within {CATCH_UP_STALL_S:g} s" if least is None else
+                    f"it learned nothing of its last {least} pairs in {CATCH_UP_STALL_S:g} s")
+        least = backlog()
+        if least == 0:
+            return ""
 
 
 def _how_warmed(status: dict) -> str:

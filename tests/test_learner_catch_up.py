@@ -1,0 +1,94 @@
+"""A learner with much to learn at once (an earlier run's log after a restart, the old learner's history at
+a hot-swap) learns it between answers, unsure until it has: an hour of mirroring took a GP minutes to
+learn again, and a learner that learned it all before serving was stopped at its ready timeout, again and
+again (benchmarks/soak.py). On a fake bus; tests/test_replay_restart.py and tests/test_hot_swap.py run it live."""
+import numpy as np
+
+from bus_schema import InstanceKeys, Input, Proposal, Snapshot, decode
+from bus_schema.spaces import Box
+from services.boxes.learner import LearnerNode
+from services.learners import make_learner
+from services.pairlog import PairLog
+from tests.fakebus import FakeQuery, fake_box
+from tests.test_learner_box import pair
+
+KEYS = InstanceKeys("main")
+
+
+class Spy:
+    """A learner that records the order it is taught in."""
+
+    def __init__(self, model):
+        self.model, self.order = model, []
+
+    def __getattr__(self, name):
+        return getattr(self.model, name)
+
+    def learn_one(self, x, y, **kw):
+        self.order.append(round(float(x[0]) * 10))
+        self.model.learn_one(x, y, **kw)
+
+
+def node(name="student", model=None):
+    box = fake_box("learner", name)
+    return LearnerNode(box, model or make_learner("knn", 2, 1), PairLog(2, 1), Box((-1.0,), (1.0,))), box.session
+
+
+def confidence_of_answer(n, bus, tick):
+    n.answer(Input(tick, 0.0, np.array([0.5, -0.5])))
+    return decode(Proposal, bus.on(KEYS.proposal("learner", n.name))[-1], "p", {"y": 1}).confidence
+
+
+def test_a_replayed_log_is_learned_between_answers_in_order_and_the_learner_is_unsure_until_then():
+    spy = Spy(make_learner("knn", 2, 1))
+    n, bus = node(model=spy)
+    n.replay([pair(s) for s in range(1, 41)])
+    assert (n.seq, len(n.backlog), spy.n_learned) == (40, 40, 0)
+    assert confidence_of_answer(n, bus, 1) == 0.0 and n.wait() == 0.0
+    n.catch_up(0.0)  # a slice learns at least one pair
+    n.on_pair(pair(41))  # taught meanwhile: behind the backlog, not before it
+    assert n.seq == 41 and len(n.backlog) == 40 and len(n.pairs) == 1  # the log had the 40 already
+    while n.backlog:
+        n.catch_up(0.0)
+    assert spy.order == list(range(1, 42)) and n.counts["caught_up_s"] >= 0.0
+    assert confidence_of_answer(n, bus, 2) > 0.0 and n.wait() == 0.1
+
+
+def ask(n, key, parameters=""):
+    query = FakeQuery(key, parameters)
+    n.on_query(query)
+    return query.replies[0][1] if query.replies else None
+
+
+def test_a_swap_from_a_learner_still_catching_up_takes_its_snapshot_and_the_rest_of_its_history():
+    old, _ = node("old")
+    for seq in range(1, 31):
+        old.pairs.append(pair(seq))  # as an earlier run's log: in the file, then replayed
+    old.replay([pair(s) for s in range(1, 31)])
+    for _ in range(12):
+        old.catch_up(0.0)
+    snap = decode(Snapshot, ask(old, KEYS.snapshot("old")), "s")
+    assert (snap.seq, snap.n_learned) == (12, 12)  # what its model holds, not what its log does
+    new, new_bus = node("new")
+    new_bus.answer(KEYS.snapshot("old"), lambda p: ask(old, KEYS.snapshot("old"), str(p)))
+    new_bus.answer(KEYS.history("old"), lambda p: ask(old, KEYS.history("old"), str(p)))
+    assert new.warm_from("old")
+    assert new.counts["warmed_by_snapshot"] == 1 and len(new.backlog) == 18 and new.seq == 30
+    while new.backlog:
+        new.catch_up(0.0)
+    assert new.model.n_learned == 30 and len(new.pairs) == 30
+    assert np.array_equal(new.pairs.history()[0], old.pairs.history()[0])
+
+
+def test_a_swap_to_another_class_learns_the_whole_history_between_answers():
+    old, _ = node("old")
+    for seq in range(1, 21):
+        old.on_pair(pair(seq))
+    new, new_bus = node("new", make_learner("lwpr", 2, 1))
+    new_bus.answer(KEYS.snapshot("old"), lambda p: ask(old, KEYS.snapshot("old"), str(p)))
+    new_bus.answer(KEYS.history("old"), lambda p: ask(old, KEYS.history("old"), str(p)))
+    assert new.warm_from("old") and "warmed_by_snapshot" not in new.counts
+    assert len(new.backlog) == 20 and new.model.n_learned == 0 and new.seq == 20
+    while new.backlog:
+        new.catch_up(0.0)
+    assert new.model.n_learned == 20
