@@ -2,9 +2,12 @@
 knew (its log), not from the log of the learner the swap retired (services/supervisor/pair_logs.py), and
 learns it between answers (services/boxes/learner.py)."""
 import msgpack
+import numpy as np
 import pytest
 
+from bus_schema import TrainingPair
 from rigs.harness import LOOP_SERVICES, Probe, dogged, dogged_ok, free_port
+from services.pairlog import PairLog
 from tests.test_supervisor import ps, wait
 
 pytestmark = pytest.mark.live
@@ -75,3 +78,49 @@ def test_the_next_up_starts_from_the_swapped_in_learners_pairs(tmp_path):
     [aside] = state.glob("learner.pairs.*.earlier")
     assert records(aside) == retired and not (state / "learner-s1.pairs").exists()
     assert "replaying" in (tmp_path / "logs" / "learner.log").read_text()
+
+
+LONG_LOG = """
+[profile]
+name = "longlog"
+log_dir = "{logs}"
+state_dir = "{state}"
+
+[services.platform]
+box = "platform"
+args = ["--platform", "point", "--param", "dims=2", "--rate", "100"]
+
+[services.learner]
+box = "learner"
+args = ["--learner", "gp"]
+ready_timeout_s = 20
+
+[services.arbitrator]
+box = "arbitrator"
+"""
+
+
+def test_a_learner_with_a_log_longer_to_learn_than_its_ready_timeout_serves_at_once(tmp_path):
+    """(issue 31) It learned its whole log before declaring itself ready: 40,000 pairs take a GP longer than
+    its 20 s ready timeout, so it was stopped and restarted until its supervisor gave up."""
+    endpoint, state = f"tcp/127.0.0.1:{free_port()}", tmp_path / "state"
+    log = PairLog(4, 2, state / "learner.pairs")
+    log.replay_file()
+    rng = np.random.default_rng(0)
+    for seq, x in enumerate(rng.uniform(-1, 1, (40_000, 4)), start=1):
+        log.append(TrainingPair("earlier", seq, seq, x, np.sin(3 * x[:2]), "teacher/t"))
+    log.close()
+    profile = tmp_path / "longlog.toml"
+    profile.write_text(LONG_LOG.format(logs=tmp_path / "logs", state=state))
+    sup, probe = up(tmp_path, endpoint, profile), None
+    try:
+        all_ready(endpoint)
+        probe = Probe(endpoint)
+        probe.wait_for(lambda: probe.counter("learner/learner", "replayed", -1) >= 0, 30, "the learner's status")
+        assert probe.counter("learner/learner", "replayed") == 40_000
+        assert probe.counter("learner/learner", "backlog") > 0, "it serves while it learns its log"
+        assert ps(endpoint)["learner"]["restarts"] == 0
+    finally:
+        if probe:
+            probe.close()
+        down(sup, endpoint)
