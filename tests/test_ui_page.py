@@ -5,6 +5,7 @@ import os
 import signal
 import time
 
+import cv2
 import numpy as np
 import pytest
 
@@ -27,6 +28,11 @@ OscillatorNode.prototype.start = function (when) {
   window.__heard.push(["tone", this.frequency.value, this.context.state]);
   return startTone.call(this, when);
 };
+// every object URL the page made and has not revoked (each holds a camera frame's JPEG)
+window.__urls = new Set();
+const makeUrl = URL.createObjectURL.bind(URL), dropUrl = URL.revokeObjectURL.bind(URL);
+URL.createObjectURL = (blob) => { const u = makeUrl(blob); window.__urls.add(u); return u; };
+URL.revokeObjectURL = (u) => { window.__urls.delete(u); dropUrl(u); };
 if (window.speechSynthesis) {
   const speak = speechSynthesis.speak.bind(speechSynthesis);
   speechSynthesis.speak = (u) => { window.__heard.push(["say", u.text]); speak(u); };
@@ -83,6 +89,22 @@ def test_page_loads_and_shows_the_services_and_the_robot_asking(live):
     assert [h[:2] for h in heard] == [["tone", 660], ["tone", 880], ["say", "I am unsure. Teach me."]], heard
     assert heard[0][2] == "running", f"the chime's audio context is {heard[0][2]}"
     shot(page, run_dir, "unsure")
+
+
+def test_frames_that_come_faster_than_they_are_decoded_leave_no_image_behind(live):
+    """(issue 31's soak) A frame that came before the one before it was decoded left that one's object URL,
+    and its JPEG, for the page's life: chromium grew 300 MB in an hour of ball seeking."""
+    _, page, _, _, _ = live
+    jpeg = cv2.imencode(".jpg", np.full((60, 80, 3), 128, np.uint8))[1].tobytes()
+    left = page.evaluate("""async (jpeg) => {
+        const head = hello ? hello.frame_header_bytes : 16;
+        const frame = new Uint8Array(head + jpeg.length);
+        frame.set(jpeg, head);
+        for (let i = 0; i < 20; i++) onFrame(frame.buffer.slice(0));  // all before the first is decoded
+        await new Promise((done) => setTimeout(done, 500));
+        return window.__urls.size;
+    }""", list(jpeg))
+    assert left <= 2, f"{left} frames' URLs left"  # the one shown, and one the camera's stream just sent
 
 
 def test_teach_turns_the_ears_to_teacher_within_200_ms_and_the_camera_moves(live):

@@ -88,6 +88,11 @@ def zenoh_config(connect=None, listen=None, mode="auto", config_file=None,
             listen = [endpoint.replace("tcp/", "tls/", 1) for endpoint in (listen or [LOCAL_LISTEN])]
     conf.insert_json5("mode", json.dumps(mode))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    # no shared memory: Zenoh maps each sender's segments (16 MiB of pool, 2 fds) to send a payload over 3 KiB
+    # between processes of a machine, and keeps a dead sender's mapped for good (and its file in /dev/shm): a
+    # camera's reader grew 19.4 MB and 2 fds at each restart of the camera (benchmarks/soak.py; the payloads
+    # it would spare a copy of are frames of 20-300 kB, a few a tick)
+    conf.insert_json5("transport/shared_memory/enabled", "false")
     # a latest-only message waits up to 20 ms for room before it is dropped (default 1 ms): on a
     # busy 2-core machine a sender thread can be descheduled that long without any real congestion
     conf.insert_json5("transport/link/tx/queue/congestion_control/drop/wait_before_drop", "20000")

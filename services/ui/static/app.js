@@ -14,6 +14,7 @@ const stats = { frames: [], keys: [], clicks: [] };  // for tests and the benchm
 window.doggedStats = stats;
 
 let ws = null, hello = null, shownMode = null, series = [], frameTimes = [], lastUrl = null;
+let pendingUrl = null;  // the newest frame's image, still being decoded
 const held = new Set();  // arrow keys and buttons held now
 let padAxes = null;      // the gamepad's say: [forward, turn] fractions or nulls
 let refresh = null;
@@ -67,11 +68,21 @@ function onFrame(buffer) {
   const blob = new Blob([buffer.slice(hello ? hello.frame_header_bytes : 16)], { type: "image/jpeg" });
   const url = URL.createObjectURL(blob);
   const img = $("camera");
+  // a frame that comes while the one before is still decoding replaces it, and that one's URL goes now: left
+  // to a load that never came, each held its JPEG for the page's life (the page's browser grew 300 MB in an
+  // hour of ball seeking, benchmarks/soak.py)
+  if (pendingUrl) URL.revokeObjectURL(pendingUrl);
+  pendingUrl = url;
   img.onload = () => {
     stats.frames.push([stamp * 1000, now(), tick]);
     if (stats.frames.length > 2000) stats.frames.splice(0, 1000);
     if (lastUrl) URL.revokeObjectURL(lastUrl);
     lastUrl = url;
+    pendingUrl = null;
+  };
+  img.onerror = () => {
+    URL.revokeObjectURL(url);
+    if (pendingUrl === url) pendingUrl = null;
   };
   img.src = url;
   const t = now();
