@@ -12,16 +12,18 @@ from tests.test_supervisor import ps, wait
 
 pytestmark = pytest.mark.live
 
-PROFILE = """
+# a point at 100 Hz, its learners' state kept; {name} and the services after it are each test's
+HEAD = """
 [profile]
-name = "swapup"
+name = "{name}"
 log_dir = "{logs}"
 state_dir = "{state}"
 
 [services.platform]
 box = "platform"
 args = ["--platform", "point", "--param", "dims=2", "--rate", "100"]
-""" + LOOP_SERVICES
+"""
+PROFILE = HEAD.replace("{name}", "swapup") + LOOP_SERVICES
 
 
 def records(path) -> int:
@@ -80,16 +82,7 @@ def test_the_next_up_starts_from_the_swapped_in_learners_pairs(tmp_path):
     assert "replaying" in (tmp_path / "logs" / "learner.log").read_text()
 
 
-LONG_LOG = """
-[profile]
-name = "longlog"
-log_dir = "{logs}"
-state_dir = "{state}"
-
-[services.platform]
-box = "platform"
-args = ["--platform", "point", "--param", "dims=2", "--rate", "100"]
-
+LONG_LOG = HEAD.replace("{name}", "longlog") + """
 [services.learner]
 box = "learner"
 args = ["--learner", "gp"]

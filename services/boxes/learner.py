@@ -156,20 +156,15 @@ class LearnerNode:
             self._catching_up_since = time.monotonic()
             self.log.info("learning %d pairs between answers (unsure until then)", len(self.backlog))
         end = time.monotonic() + budget_s
-        while self.in_bulk:  # not serving yet (the swap selects it once caught up): whole rows by learn_many
-            rows = [self.backlog.popleft() for _ in range(min(BULK_ROWS, self.in_bulk))]
-            self.in_bulk -= len(rows)
-            whole = [r for r in rows if r[2] is None]
-            if len(whole) == len(rows):
+        while self.backlog:
+            # a swap's history (not serving yet: the swap selects it once caught up) in chunks, the rest a pair a time
+            rows = [self.backlog.popleft() for _ in range(min(BULK_ROWS, self.in_bulk) or 1)]
+            self.in_bulk = max(0, self.in_bulk - len(rows))
+            if len(rows) > 1 and all(mask is None for _, _, mask in rows):
                 self.model.learn_many(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]))
             else:
                 for x, y, mask in rows:
                     self.learn(x, y, mask)
-            if time.monotonic() >= end:
-                break
-        while self.backlog and not self.in_bulk:
-            x, y, mask = self.backlog.popleft()
-            self.learn(x, y, mask)
             if time.monotonic() >= end:
                 break
         if not self.backlog:
