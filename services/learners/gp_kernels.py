@@ -4,7 +4,8 @@ factor, and a prediction, each O(m^2) for m remembered samples with no allocatio
 The kernel, on inputs multiplied by their inverse length scales (z = x inv_ell), is the unit
 squared exponential weighted by `smooth` plus a linear part `linear` (z - zc).(z' - zc) around the
 taught inputs' centre (the two weights are the fit's shares of the prior variance);
-`chol` is the lower Cholesky factor of K + ratio I over the remembered inputs, and
+`chol` is the lower Cholesky factor of K + ratio R^-1 over the remembered inputs (R: how many times
+each was taught, gp_local.REPEATS_COUNTED at most; I until one is taught again), and
 `beta` = chol^-1 (y - mu) per output, so that the posterior mean at x is mu + (chol^-1 k) . beta.
 """
 from __future__ import annotations
@@ -118,22 +119,62 @@ def answer_one(offset, unit_var, mu, amplitude2, ratio, near_span, hold, floor, 
 
 
 @nb.njit(cache=True, nogil=True)
-def near_any(xs, ys, m, x, y, x_tolerance, y_tolerance):
-    """Whether some row j < m has |xs[j] - x| <= x_tolerance and |ys[j] - y| <= y_tolerance everywhere."""
+def same_place(xs, ys, m, x, y, x_tolerance, y_tolerance, others):
+    """Of the first m rows, those with |xs[j] - x| <= x_tolerance everywhere (the same place): returns the
+    first whose |ys[j] - y| <= y_tolerance too (the same lesson), or -1, and how many of the others (another
+    answer there) it wrote into `others`."""
+    same, count = -1, 0
     for j in range(m):
-        near = True
+        here = True
         for i in range(x.shape[0]):
             if not abs(xs[j, i] - x[i]) <= x_tolerance[i]:
-                near = False
+                here = False
                 break
-        if near:
-            for o in range(y.shape[0]):
-                if not abs(ys[j, o] - y[o]) <= y_tolerance[o]:
-                    near = False
-                    break
-        if near:
-            return True
-    return False
+        if not here:
+            continue
+        agrees = True
+        for o in range(y.shape[0]):
+            if not abs(ys[j, o] - y[o]) <= y_tolerance[o]:
+                agrees = False
+                break
+        if agrees and same < 0:
+            same = j
+        elif not agrees:
+            others[count] = j
+            count += 1
+    return same, count
+
+
+@nb.njit(cache=True, nogil=True)
+def reweigh(chol, m, j, delta):
+    """chol, the lower factor of K, becomes that of K + delta e_j e_j^T (row j's noise changed by delta): a
+    rank-one update, or downdate for delta < 0. False, chol as good as lost, when rounding leaves the
+    result not positive definite: rebuild it."""
+    sign = 1.0 if delta > 0.0 else -1.0
+    carry = np.zeros(m)
+    carry[j] = math.sqrt(abs(delta))
+    for k in range(j, m):
+        pivot2 = chol[k, k] * chol[k, k] + sign * carry[k] * carry[k]
+        if not pivot2 > 0.0:
+            return False
+        pivot = math.sqrt(pivot2)
+        c, s = pivot / chol[k, k], carry[k] / chol[k, k]
+        chol[k, k] = pivot
+        for i in range(k + 1, m):
+            chol[i, k] = (chol[i, k] + sign * s * carry[i]) / c
+            carry[i] = c * carry[i] - s * chol[i, k]
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
+def resolve(chol, beta, residual, m, start):
+    """beta = chol^-1 residual again, from row `start` on (the rows before it unchanged)."""
+    for i in range(start, m):
+        for o in range(beta.shape[1]):
+            acc = residual[i, o]
+            for k in range(i):
+                acc -= chol[i, k] * beta[k, o]
+            beta[i, o] = acc / chol[i, i]
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)

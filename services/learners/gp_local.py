@@ -3,10 +3,12 @@ says how sure it is of its answer (Rasmussen & Williams 2006; relevance as in th
 the wired learner, `gp` (gp.py), which splits a leaf where its halves are better fitted apart.
 
 It remembers up to `memory` samples and answers with the exact posterior over them. A pair within a
-thousandth of the data's spread of a remembered one adds nothing and is not remembered: a robot held
-still gives thousands of them. Past `memory`, the most redundant are thinned (gp_memory: where the
-memory is densest, the older of two close samples), so every region taught keeps its examples and a
-newer lesson outweighs an older one there. One length scale per input and the outputs' amplitude and
+thousandth of the data's spread of a remembered one is not remembered again (a robot held still gives
+thousands of them) but counted: the sample weighs as many, up to REPEATS_COUNTED, and each other answer at
+its place takes one away. Past `memory`, the most redundant are thinned (gp_memory: where the memory is
+densest, the older of two close samples), so every region taught keeps its examples and a newer lesson
+outweighs an older one there.
+One length scale per input and the outputs' amplitude and
 noise are refitted by maximum a posteriori evidence (gp_evidence) after `first_fit` samples and then
 each time half as many again, 8, 12, 18, 27, ... (never on fewer samples than inputs: those cannot tell
 which inputs matter), then every `refit_every`, and early when the teaching surprises the fit or spreads
@@ -50,7 +52,13 @@ from .novelty import InputEnvelope
 # the smooth part's share of the prior variance under which the evidence calls a map linear: fits
 # of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
 LINEAR_ENOUGH = 1e-3
-DUPLICATE = 1e-3  # of an input's spread, of an output's taught span: a pair this near a remembered one adds nothing
+DUPLICATE = 1e-3  # of an input's spread, of an output's taught span: a pair this near a remembered one is a repeat
+# a remembered sample taught again weighs as many samples, up to this many, and each other answer at its
+# place weighs one less (down to 1 / this): a place the teacher answers now one way, now (late, by a slip
+# of a key) another, answers as the teacher mostly did of late, not as the mean of each answer once (a ball
+# seeker taught by keys saw nothing in 105 lessons: 97 turned, 8 had a key let go a tick late, and the
+# student walked straight ahead for good); a correction outweighs the oldest habit there after this many
+REPEATS_COUNTED = 16
 
 
 class LocalGP(Refitting, Learner):
@@ -76,7 +84,8 @@ class LocalGP(Refitting, Learner):
             check_range("noise_ceiling", noise_ceiling, 1e-6, 1.0)
         self._m = 0
         self._xs, self._ys = np.zeros((0, n_in)), np.zeros((0, n_out))
-        self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was learned
+        self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was last taught
+        self._repeats = np.zeros(0)  # how many times each was taught (REPEATS_COUNTED at most): its noise / that
         self._chol, self._beta = np.zeros((0, 0)), np.zeros((0, n_out))
         self._y_count, self._y_mean, self._y_sum_sq = 0, np.zeros(n_out), np.zeros(n_out)
         self._envelope = InputEnvelope(n_in)
@@ -116,27 +125,60 @@ class LocalGP(Refitting, Learner):
         self._collect()
         self._envelope.learn(x[None, :])
         self._count_target(y)
-        if not self._near_duplicate(x, y):
+        same, others = self._at_place(x, y)
+        if len(others):
+            self._weigh(others, np.maximum(self._repeats[others] - 1.0, 1.0 / REPEATS_COUNTED))
+        if same < 0:
             self._remember(x, y)
+        else:
+            self._born[same] = self._y_count  # as new as this lesson
+            self._weigh(np.array([same]), np.minimum(self._repeats[[same]] + 1.0, REPEATS_COUNTED))
         self._fit_when_due()
         self._answer_cache = None
 
-    def _near_duplicate(self, x: np.ndarray, y: np.ndarray) -> bool:
-        """A remembered pair within DUPLICATE of each input's spread and each output's taught span (exactly,
-        along what never varied) adds nothing: epochs over one data set would tell the evidence there is no
-        noise, and a robot held still gives thousands (a pendulum held upright), which drove the
-        incremental factor's rounding up to answers of 1e155. Judged in the data's units, not the fit's: a
-        sample the fit of the moment finds redundant (an early fit sure of a wrong map) may be just what
-        shows it wrong (mirroring's seed 6 stopped learning at 0.17 rad)."""
-        return gp_kernels.near_any(self._xs, self._ys, self._m, x, kernel_ready(y), DUPLICATE * self._input_sd(),
-                                   DUPLICATE * self._taught.span)
+    def _at_place(self, x: np.ndarray, y: np.ndarray) -> tuple[int, np.ndarray]:
+        """The remembered pairs at x's place, within DUPLICATE of each input's spread (exactly, along what never
+        varied): the row of one within DUPLICATE of each output's taught span too, or -1, and the rows of the
+        others (another answer there). Judged in the data's units, not the fit's: a sample the fit of the
+        moment finds redundant (an early fit sure of a wrong map) may be just what shows it wrong (mirroring's
+        seed 6 stopped learning at 0.17 rad)."""
+        others = np.empty(self._m, dtype=np.int64)
+        same, count = gp_kernels.same_place(self._xs, self._ys, self._m, x, kernel_ready(y),
+                                            DUPLICATE * self._input_sd(), DUPLICATE * self._taught.span, others)
+        return same, others[:count]
+
+    def _weigh(self, rows: np.ndarray, repeats: np.ndarray) -> None:
+        """Remembered `rows` weigh `repeats` samples each from now on: each one's noise is the fit's over its
+        repeats. A pair taught again is not remembered again: epochs over one data set would tell the
+        evidence there is no noise, and a robot held still gives thousands (a pendulum held upright), which
+        drove the incremental factor's rounding up to answers of 1e155. The factor is updated in place, a
+        rank-one change per row (O(m^2) each)."""
+        before = self._repeats[rows].copy()
+        changed = before != repeats
+        if not changed.any():
+            return  # (a sample taught again past REPEATS_COUNTED costs nothing)
+        rows, before, repeats = rows[changed], before[changed], repeats[changed]
+        self._repeats[rows] = repeats
+        if not self._factored:
+            return  # weighed when the factor is built
+        if self._deferring:
+            self._stale = True
+            return
+        m = self._m
+        for j, old, new in zip(rows, before, repeats):
+            if not gp_kernels.reweigh(self._chol, m, int(j), self._ratio * (1.0 / new - 1.0 / old)):
+                self._rebuild()  # rounding: from scratch
+                break
+        else:
+            gp_kernels.resolve(self._chol, self._beta, self._ys[:m] - self._hyper.mu, m, int(rows.min()))
+        self._answer_cache = None
 
     def _remember(self, x: np.ndarray, y: np.ndarray) -> None:
         if self._m == self.memory:
             self._thin()
         self._reserve(self._m + 1)
         m = self._m
-        self._xs[m], self._ys[m], self._born[m] = x, y, self._y_count
+        self._xs[m], self._ys[m], self._born[m], self._repeats[m] = x, y, self._y_count, 1.0
         if self._factored and self._deferring:
             self._m, self._stale = m + 1, True  # no surprise weighed: the answer it would test is not built
             return
@@ -180,7 +222,7 @@ class LocalGP(Refitting, Learner):
         if needed <= rows:
             return
         grown = min(self.memory, max(needed, 2 * rows, 32))
-        for name in ("_xs", "_ys", "_born", "_beta"):
+        for name in ("_xs", "_ys", "_born", "_repeats", "_beta"):
             old = getattr(self, name)
             new = np.zeros((grown,) + old.shape[1:], dtype=old.dtype)
             new[:rows] = old
@@ -194,7 +236,7 @@ class LocalGP(Refitting, Learner):
         left, the older (gp_memory.densest_older)."""
         dropped = densest_older(self._xs[:self._m] * self._inv_ell, self._born[:self._m], max(1, self.memory // 8))
         keep = np.flatnonzero(~dropped)
-        for name in ("_xs", "_ys", "_born"):
+        for name in ("_xs", "_ys", "_born", "_repeats"):
             array = getattr(self, name)
             array[:len(keep)] = array[keep]
         self._m = len(keep)
@@ -226,6 +268,7 @@ class LocalGP(Refitting, Learner):
         k = len(order)
         child._reserve(k)
         child._xs[:k], child._ys[:k], child._born[:k] = self._xs[order], self._ys[order], np.arange(k)
+        child._repeats[:k] = self._repeats[order]
         child._m = child._n_learned = k
         child._envelope.learn(child._xs[:k])
         child._note_shown(child._xs[:k], child._ys[:k])
@@ -251,7 +294,7 @@ class LocalGP(Refitting, Learner):
             gram = self._kernel(self._xs[:m], self._xs[:m])
             while True:
                 try:
-                    chol = np.linalg.cholesky(gram + self._ratio * np.eye(m))
+                    chol = np.linalg.cholesky(gram + np.diag(self._ratio / self._repeats[:m]))
                     break
                 except np.linalg.LinAlgError:  # rounding on near-duplicates: more noise, never a crash
                     self._ratio *= 10.0
@@ -268,7 +311,7 @@ class LocalGP(Refitting, Learner):
         gp_kernels.gram(self._xs, m, self._inv_ell, self._hyper.centre, self._smooth, self._linear, unit)
         while True:
             gram = unit.copy()
-            gram.flat[::m + 1] += self._ratio
+            gram.flat[::m + 1] += self._ratio / self._repeats[:m]
             upper, failed = potrf(gram.T, lower=0, clean=1, overwrite_a=1)
             if failed == 0:
                 return upper.T
@@ -378,8 +421,13 @@ class LocalGP(Refitting, Learner):
         state = dict(self.__dict__, _pending=None, _searching=None, _background=False, proposed_split=None,
                      _answer_cache=None, _sd_cache=None)
         m = self._m
-        for name in ("_xs", "_ys", "_born", "_beta"):
+        for name in ("_xs", "_ys", "_born", "_repeats", "_beta"):
             state[name] = getattr(self, name)[:m].copy()
         state["_chol"] = self._chol[:m, :m].copy()
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(state)
+        if len(self._repeats) != len(self._xs):  # a snapshot from before repeats were counted: each taught once
+            self._repeats = np.ones(len(self._xs))
 
