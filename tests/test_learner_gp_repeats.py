@@ -1,10 +1,11 @@
-"""A place taught again weighs as many lessons (gp_local.REPEATS_COUNTED): the student answers as the
+"""A place taught again weighs as many lessons (gp_repeats.REPEATS_COUNTED): the student answers as the
 teacher mostly did there, not the mean of each different answer once. A keyboard-taught ball seeker saw
 nothing in 105 lessons: 97 said turn, 8 (a key let go a tick late) said walk; it walked straight for good."""
 import numpy as np
 
 from services.learners import make_learner
-from services.learners.gp_local import REPEATS_COUNTED, LocalGP
+from services.learners.gp_local import LocalGP
+from services.learners.gp_repeats import REPEATS_COUNTED
 
 
 def _taught_around(model, rng, count=60):

@@ -5,7 +5,7 @@ The kernel, on inputs multiplied by their inverse length scales (z = x inv_ell),
 squared exponential weighted by `smooth` plus a linear part `linear` (z - zc).(z' - zc) around the
 taught inputs' centre (the two weights are the fit's shares of the prior variance);
 `chol` is the lower Cholesky factor of K + ratio R^-1 over the remembered inputs (R: how many times
-each was taught, gp_local.REPEATS_COUNTED at most; I until one is taught again), and
+each was taught, gp_repeats.REPEATS_COUNTED at most; I until one is taught again), and
 `beta` = chol^-1 (y - mu) per output, so that the posterior mean at x is mu + (chol^-1 k) . beta.
 """
 from __future__ import annotations

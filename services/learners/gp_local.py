@@ -4,7 +4,7 @@ the wired learner, `gp` (gp.py), which splits a leaf where its halves are better
 
 It remembers up to `memory` samples and answers with the exact posterior over them. A pair within a
 thousandth of the data's spread of a remembered one is not remembered again (a robot held still gives
-thousands of them) but counted: the sample weighs as many, up to REPEATS_COUNTED, and each other answer at
+thousands of them) but counted (gp_repeats): the sample weighs as many, up to 16, and each other answer at
 its place takes one away. Past `memory`, the most redundant are thinned (gp_memory: where the memory is
 densest, the older of two close samples), so every region taught keeps its examples and a newer lesson
 outweighs an older one there.
@@ -47,21 +47,15 @@ from .base import FADE, Learner, Prediction, Predictions, check_positive, check_
 from .gp_evidence import Hyper, first_hyper
 from .gp_fitting import SURPRISE_REFIT_GAP, Refitting
 from .gp_memory import densest_older
+from .gp_repeats import Repeats
 from .novelty import InputEnvelope
 
 # the smooth part's share of the prior variance under which the evidence calls a map linear: fits
 # of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
 LINEAR_ENOUGH = 1e-3
-DUPLICATE = 1e-3  # of an input's spread, of an output's taught span: a pair this near a remembered one is a repeat
-# a remembered sample taught again weighs as many samples, up to this many, and each other answer at its
-# place weighs one less (down to 1 / this): a place the teacher answers now one way, now (late, by a slip
-# of a key) another, answers as the teacher mostly did of late, not as the mean of each answer once (a ball
-# seeker taught by keys saw nothing in 105 lessons: 97 turned, 8 had a key let go a tick late, and the
-# student walked straight ahead for good); a correction outweighs the oldest habit there after this many
-REPEATS_COUNTED = 16
 
 
-class LocalGP(Refitting, Learner):
+class LocalGP(Refitting, Repeats, Learner):
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, memory: int = 800, near: float = 0.04,
                  fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024, noise_floor: float = 1e-5,
                  relevance_prior_sd: float = 2.0, max_iterations: int = 60, novelty_scale: float = 0.25,
@@ -85,7 +79,7 @@ class LocalGP(Refitting, Learner):
         self._m = 0
         self._xs, self._ys = np.zeros((0, n_in)), np.zeros((0, n_out))
         self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was last taught
-        self._repeats = np.zeros(0)  # how many times each was taught (REPEATS_COUNTED at most): its noise / that
+        self._repeats = np.zeros(0)  # how many times each was taught (gp_repeats): its noise is the fit's / that
         self._chol, self._beta = np.zeros((0, 0)), np.zeros((0, n_out))
         self._y_count, self._y_mean, self._y_sum_sq = 0, np.zeros(n_out), np.zeros(n_out)
         self._envelope = InputEnvelope(n_in)
@@ -125,52 +119,9 @@ class LocalGP(Refitting, Learner):
         self._collect()
         self._envelope.learn(x[None, :])
         self._count_target(y)
-        same, others = self._at_place(x, y)
-        if len(others):
-            self._weigh(others, np.maximum(self._repeats[others] - 1.0, 1.0 / REPEATS_COUNTED))
-        if same < 0:
+        if not self._taught_again(x, y):
             self._remember(x, y)
-        else:
-            self._born[same] = self._y_count  # as new as this lesson
-            self._weigh(np.array([same]), np.minimum(self._repeats[[same]] + 1.0, REPEATS_COUNTED))
         self._fit_when_due()
-        self._answer_cache = None
-
-    def _at_place(self, x: np.ndarray, y: np.ndarray) -> tuple[int, np.ndarray]:
-        """The remembered pairs at x's place, within DUPLICATE of each input's spread (exactly, along what never
-        varied): the row of one within DUPLICATE of each output's taught span too, or -1, and the rows of the
-        others (another answer there). Judged in the data's units, not the fit's: a sample the fit of the
-        moment finds redundant (an early fit sure of a wrong map) may be just what shows it wrong (mirroring's
-        seed 6 stopped learning at 0.17 rad)."""
-        others = np.empty(self._m, dtype=np.int64)
-        same, count = gp_kernels.same_place(self._xs, self._ys, self._m, x, kernel_ready(y),
-                                            DUPLICATE * self._input_sd(), DUPLICATE * self._taught.span, others)
-        return same, others[:count]
-
-    def _weigh(self, rows: np.ndarray, repeats: np.ndarray) -> None:
-        """Remembered `rows` weigh `repeats` samples each from now on: each one's noise is the fit's over its
-        repeats. A pair taught again is not remembered again: epochs over one data set would tell the
-        evidence there is no noise, and a robot held still gives thousands (a pendulum held upright), which
-        drove the incremental factor's rounding up to answers of 1e155. The factor is updated in place, a
-        rank-one change per row (O(m^2) each)."""
-        before = self._repeats[rows].copy()
-        changed = before != repeats
-        if not changed.any():
-            return  # (a sample taught again past REPEATS_COUNTED costs nothing)
-        rows, before, repeats = rows[changed], before[changed], repeats[changed]
-        self._repeats[rows] = repeats
-        if not self._factored:
-            return  # weighed when the factor is built
-        if self._deferring:
-            self._stale = True
-            return
-        m = self._m
-        for j, old, new in zip(rows, before, repeats):
-            if not gp_kernels.reweigh(self._chol, m, int(j), self._ratio * (1.0 / new - 1.0 / old)):
-                self._rebuild()  # rounding: from scratch
-                break
-        else:
-            gp_kernels.resolve(self._chol, self._beta, self._ys[:m] - self._hyper.mu, m, int(rows.min()))
         self._answer_cache = None
 
     def _remember(self, x: np.ndarray, y: np.ndarray) -> None:
