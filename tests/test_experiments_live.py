@@ -15,6 +15,15 @@ def endpoint():
     return f"tcp/127.0.0.1:{free_port()}"
 
 
+def _what_drove(run, since: int, log_file) -> None:
+    """Prints what drove the robot from tick `since` (the captured output shows with a failure, whole): the error
+    per head axis, the commands by mode and source, the learner's ps row and the tail of its log."""
+    per_axis = {axis: round(student_error(run, since, (axis,))[0], 4) for axis in ("pan", "tilt")}
+    drove = Counter((c.mode, c.source) for c in run.commands() if c.tick > since)
+    log = [line for line in log_file.read_text(errors="replace").splitlines() if "zenoh" not in line][-15:]
+    print("per axis", per_axis, "drove", dict(drove), "learner", run.ps().get("learner", {}), "its log", *log, sep="\n")
+
+
 def test_mirroring_one_teacher_live(tmp_path):
     run = start_mirroring(tmp_path, endpoint())  # the learner deploy/mirroring.toml wires
     try:
@@ -26,18 +35,13 @@ def test_mirroring_one_teacher_live(tmp_path):
         off = run.tick()
         run.run_ticks(int(5 * RATE))            # 5 s of the student alone, the tail still moving
         error, n = student_error(run, off + 3)
-        # what drove the robot alone, and per head axis, so that a failure says what went wrong
-        drove = Counter((c.mode, c.source) for c in run.commands() if c.tick > off + 3)
-        per_axis = {axis: round(student_error(run, off + 3, (axis,))[0], 4) for axis in ("pan", "tilt")}
-        learner = run.ps().get("learner", {})
+        learned = n >= 100 and error < 0.1 < untaught
+        if not learned:
+            _what_drove(run, off + 3, tmp_path / "logs" / "learner.log")
     finally:
         assert run.close() == 0
     print(f"mirroring live: untaught RMS {untaught:.3f} rad, after 10 s of teaching {error:.5f} rad over {n} ticks")
-    log = [line for line in (tmp_path / "logs" / "learner.log").read_text(errors="replace").splitlines()
-           if "zenoh" not in line][-15:]
-    if not (n >= 100 and error < 0.1 < untaught):  # (the captured output shows with the failure, whole)
-        print("per axis", per_axis, "\ndrove", dict(drove), "\nlearner", learner, "\nits log", *log, sep="\n")
-    assert n >= 100 and error < 0.1 < untaught, per_axis
+    assert learned, (n, error, untaught)
 
 
 def test_ballseek_live_student_reaches_pink_then_learns_to_ignore_orange(tmp_path):
