@@ -2,15 +2,17 @@
 a hot-swap) learns it between answers, unsure until it has: an hour of mirroring took a GP minutes to
 learn again, and a learner that learned it all before serving was stopped at its ready timeout, again and
 again (benchmarks/soak.py). On a fake bus; tests/test_replay_restart.py and tests/test_hot_swap.py run it live."""
+import time
+
 import numpy as np
 
-from bus_schema import InstanceKeys, Input, Proposal, Snapshot, decode
+from bus_schema import InstanceKeys, Input, Proposal, Snapshot, decode, encode
 from bus_schema.spaces import Box
 from services.boxes.learner import LearnerNode
 from services.learners import make_learner
 from services.pairlog import PairLog
 from tests.fakebus import FakeQuery, fake_box
-from tests.test_learner_box import pair
+from tests.test_learner_box import FakeStop, pair
 
 KEYS = InstanceKeys("main")
 
@@ -92,3 +94,34 @@ def test_a_swap_to_another_class_learns_the_whole_history_between_answers():
     while new.backlog:
         new.catch_up(0.0)
     assert new.model.n_learned == 20
+
+
+class Slow(Spy):
+    """A learner that takes 4 ms a pair (a GP under load)."""
+
+    def learn_one(self, x, y, **kw):
+        time.sleep(0.004)
+        super().learn_one(x, y, **kw)
+
+
+def test_pairs_a_loaded_learner_fell_behind_on_are_learned_between_answers_not_in_one_batch():
+    """Learned in one batch, the pairs a loaded learner had fallen behind on stopped its answers for a fifth of a
+    second as the teacher let go: the arbitrator stopped waiting for it and a lockstep simulation ran 43 ticks
+    with the robot held (CI, tests/test_experiments_live.py). A batch learns for LIVE_LEARN_S, the rest waits."""
+    slow = Slow(make_learner("knn", 2, 1))
+    n, bus = node(model=slow)
+    runtime = n.box
+    runtime.subscribe(KEYS.train, "train")
+    runtime.subscribe(KEYS.input, "input")
+    for seq in range(1, 61):
+        bus.deliver(KEYS.train, encode(pair(seq)))
+    bus.deliver(KEYS.input, encode(Input(1, 0.0, np.zeros(2))))
+    runtime.stop = FakeStop(1)
+    for batch in runtime.batches(0.0, n.report):
+        n.handle(batch)
+    behind = len(n.backlog)
+    assert n.seq == 60 and len(n.pairs) == 60 and 0 < slow.n_learned < 20 and behind == 60 - slow.n_learned
+    assert confidence_of_answer(n, bus, 2) == 0.0, "unsure while it has not learned all it was taught"
+    while n.backlog:
+        n.catch_up(0.0)
+    assert slow.order == list(range(1, 61)) and confidence_of_answer(n, bus, 3) > 0.0

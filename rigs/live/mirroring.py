@@ -15,6 +15,11 @@ from services.platforms.aibo.platform import JOINTS_BOX
 from services.teachers.functions import MirrorTeacher
 
 RATE = 30.0
+# lockstep has no real time to keep: a tick waits longer for its members than the 20 ms a robot at 30 Hz can give.
+# At 20 ms a learner that stalled (descheduled on a loaded machine, a fifth of a second) missed five deadlines in a
+# row and was no longer waited for, and the simulation, racing at hundreds of ticks a second without it, held the
+# head for 43 ticks (CI); at 100 ms such a stall costs two ticks held
+LOCKSTEP_DEADLINE_MS = 100.0
 PROFILE = """
 [profile]
 name = "live-mirroring"
@@ -35,6 +40,7 @@ args = ["--learner", "{learner}", "--seed", "{seed}"{learner_params}]
 
 [services.arbitrator]
 box = "arbitrator"
+args = ["--deadline-ms", "{deadline_ms}"]
 """
 TEACHER = """
 [services.{name}]
@@ -60,8 +66,8 @@ def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, se
     specs = {n: ("mirror", {"axes": t}) if isinstance(t, str) else t for n, t in teachers.items()}
     blocks = "".join(TEACHER.format(name=n, teacher=t, params=param_args(p)) for n, (t, p) in specs.items())
     params = param_args(learner_params or {})
-    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, seed=seed, learner=learner, teachers=blocks,
-                                      learner_params=params))
+    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, deadline_ms=LOCKSTEP_DEADLINE_MS, seed=seed,
+                                      learner=learner, teachers=blocks, learner_params=params))
     return when_ready(LiveRun(profile, run_dir, endpoint))
 
 

@@ -8,7 +8,8 @@ logs every pair to a file and replays it after a crash, so a restart forgets not
 What it has to learn at once (the log after a restart, the old learner's history at a hot-swap) it
 learns in slices between answers, saying it is unsure (confidence 0) until it has caught up: an hour
 of mirroring took a GP minutes to learn again, and a learner that learned it all before serving was
-stopped at its ready timeout, again and again, for good (benchmarks/soak.py).
+stopped at its ready timeout, again and again, for good (benchmarks/soak.py). So do the pairs of a batch
+beyond LIVE_LEARN_S (a loaded learner that fell behind): its answers never stop for long.
 """
 from __future__ import annotations
 
@@ -48,6 +49,7 @@ class LearnerNode:
         self._catching_up_since = None  # monotonic, while a backlog is learned
         self.in_bulk = 0  # the backlog's first rows a swap warms with: learned in chunks, not between answers
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
+        self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
 
@@ -66,6 +68,7 @@ class LearnerNode:
                 self.on_query(raw)
         if newest is not None:
             self.answer(newest)
+        self._learn_until = time.monotonic() + LIVE_LEARN_S
         for pair in pairs:
             self.on_pair(pair)
         if self.backlog:
@@ -81,8 +84,9 @@ class LearnerNode:
             self.counts["partial_pairs_learned_whole"] += 1
 
     def incorporate(self, pair: TrainingPair):
-        if self.backlog:
-            self.backlog.append((pair.x, pair.y, pair.mask))  # in order, behind what is yet to be learned
+        if self.backlog or time.monotonic() >= self._learn_until:
+            # in order, behind what is yet to be learned; or, the batch's time to learn spent, between answers
+            self.backlog.append((pair.x, pair.y, pair.mask))
         else:
             self.learn(pair.x, pair.y, pair.mask)
         self.pairs.append(pair)
@@ -293,6 +297,10 @@ def same_params(a, b) -> bool:
 WARM_WAIT_S, ASK_AGAIN_S = 30.0, 0.5
 # a backlog is learned this long at a time between answers: an input waits at most about this for its answer
 CATCH_UP_SLICE_S = 0.005
+# a batch's pairs are learned at once for this long; the rest join the backlog. Learned whole, the pairs a loaded
+# learner had fallen behind on came in one batch as the teacher let go, its answers stopped for a fifth of a second,
+# the arbitrator stopped waiting for it and the lockstep simulation ran 43 ticks with the head held (CI, mirroring)
+LIVE_LEARN_S = 0.010
 # a swap's new learner, not serving yet, learns the old one's history this many rows to a learn_many (a GP served
 # live rebuilds its factor once a chunk: a quarter hour of mirroring's pairs in 28 s, not 35-40)
 BULK_ROWS = 256
