@@ -8,18 +8,14 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema.spaces import Spaces
-from services.demo.live import LiveRun, when_ready
+from services.boxes.arbitrator import DEADLINE_MS
+from services.demo.live import LOCKSTEP_DEADLINE_MS, LiveRun, when_ready
 from services.experiments.wiring import wired_learner
 from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT
 from services.platforms.aibo.platform import JOINTS_BOX
 from services.teachers.functions import MirrorTeacher
 
 RATE = 30.0
-# lockstep has no real time to keep: a tick waits longer for its members than the 20 ms a robot at 30 Hz can give.
-# At 20 ms a learner that stalled (descheduled on a loaded machine, a fifth of a second) missed five deadlines in a
-# row and was no longer waited for, and the simulation, racing at hundreds of ticks a second without it, held the
-# head for 43 ticks (CI); at 100 ms such a stall costs two ticks held
-LOCKSTEP_DEADLINE_MS = 100.0
 PROFILE = """
 [profile]
 name = "live-mirroring"
@@ -27,8 +23,7 @@ log_dir = "{logs}"
 
 [services.aibo]
 box = "aibo"
-args = ["--command", "joints", "--input", "joints", "--rate", "0", "--sim-hz", "{rate}", "--camera-hz", "0",
-        "--seed", "{seed}"]
+args = ["--command", "joints", "--input", "joints", {pace}, "--camera-hz", "0", "--seed", "{seed}"]
 
 [services.handler]
 box = "handler"
@@ -55,9 +50,12 @@ def param_args(params: dict) -> str:
 
 
 def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, seed: int = 0,
-                    teachers: dict | None = None, learner_params: dict | None = None) -> LiveRun:
+                    teachers: dict | None = None, learner_params: dict | None = None,
+                    realtime: bool = False) -> LiveRun:
     """teachers: service name -> axes of a mirror teacher ('both', 'pan', 'tilt') or (teacher, params);
-    default one teacher 'mirror' for both. learner None: the learner and settings deploy/mirroring.toml wires."""
+    default one teacher 'mirror' for both. learner None: the learner and settings deploy/mirroring.toml wires.
+    In lockstep (the simulation's 30 Hz as fast as the loop answers) unless `realtime` (30 Hz of wall time, as
+    deploy/mirroring.toml runs: a recording of what a user records)."""
     if learner is None:
         learner, learner_params = wired_learner("mirroring")
     teachers = teachers or {"mirror": "both"}
@@ -66,7 +64,9 @@ def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, se
     specs = {n: ("mirror", {"axes": t}) if isinstance(t, str) else t for n, t in teachers.items()}
     blocks = "".join(TEACHER.format(name=n, teacher=t, params=param_args(p)) for n, (t, p) in specs.items())
     params = param_args(learner_params or {})
-    profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=RATE, deadline_ms=LOCKSTEP_DEADLINE_MS, seed=seed,
+    pace = f'"--rate", "{RATE}"' if realtime else f'"--rate", "0", "--sim-hz", "{RATE}"'
+    deadline_ms = DEADLINE_MS if realtime else LOCKSTEP_DEADLINE_MS
+    profile.write_text(PROFILE.format(logs=run_dir / "logs", pace=pace, deadline_ms=deadline_ms, seed=seed,
                                       learner=learner, teachers=blocks, learner_params=params))
     return when_ready(LiveRun(profile, run_dir, endpoint))
 

@@ -27,6 +27,7 @@ from services.bus.inbox import decode_or_reject
 from services.bus.runtime import BoxRuntime
 
 MISSES_BEFORE_IGNORED = 5
+DEADLINE_MS = 20.0  # how long a tick waits for its members, by default: within a 30 Hz robot's tick
 
 
 class Arbitrator:
@@ -209,7 +210,7 @@ class Arbitrator:
 
 
 def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: str = "teacher-first",
-         unsure_below: float = 0.25, deadline_ms: float = 20.0, learner: str | None = None,
+         unsure_below: float = 0.25, deadline_ms: float = DEADLINE_MS, learner: str | None = None,
          train_on: str = "teacher", recent: int = 65536, strategy_params: dict | None = None) -> int:
     with BoxRuntime(conf, InstanceKeys(instance), "arbitrator", name) as box:
         chooser = make_strategy(strategy, unsure_below=unsure_below, **(strategy_params or {}))
@@ -236,7 +237,7 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--name", default="arbitrator")
     parser.add_argument("--strategy", choices=sorted(STRATEGIES), default="teacher-first")
     parser.add_argument("--unsure-below", type=float, default=0.25, help="learner confidence that means 'unsure'")
-    parser.add_argument("--deadline-ms", type=float, default=20.0, help="how long a tick waits for proposals")
+    parser.add_argument("--deadline-ms", type=float, default=DEADLINE_MS, help="how long a tick waits for proposals")
     parser.add_argument("--learner", default=None, help="the learner that serves first (default: the oldest alive)")
     parser.add_argument("--train-on", choices=("teacher", "all"), default="teacher",
                         help="teacher: only teacher outputs train the learner; "
