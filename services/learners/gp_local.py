@@ -4,7 +4,7 @@ the wired learner, `gp` (gp.py), which splits a leaf where its halves are better
 
 It remembers up to `memory` samples and answers with the exact posterior over them. A pair within a
 thousandth of the data's spread of a remembered one is not remembered again (a robot held still gives
-thousands of them) but counted (gp_repeats): the sample weighs as many, up to 16, and each other answer at
+thousands of them) but counted: the sample weighs as many, up to gp_repeats.REPEATS_COUNTED, and each other answer at
 its place takes one away. Past `memory`, the most redundant are thinned (gp_memory: where the memory is
 densest, the older of two close samples), so every region taught keeps its examples and a newer lesson
 outweighs an older one there.
