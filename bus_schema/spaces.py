@@ -65,3 +65,21 @@ class Spaces:
     @classmethod
     def from_dict(cls, d: dict) -> Spaces:
         return cls(Box.from_dict(d["input"]), Box.from_dict(d["output"]), dict(d.get("extra", {})))
+
+
+LOCKSTEP = "lockstep"  # extra: true when the platform steps only once its tick is answered (--rate 0)
+
+
+def announced(spaces: Spaces, rate_hz: float) -> Spaces:
+    """The spaces as a platform announces them: marked `lockstep` when it runs at rate 0."""
+    return spaces if rate_hz else Spaces(spaces.input, spaces.output, {**spaces.extra, LOCKSTEP: True})
+
+
+def paced_like(spaces: Spaces, source: Spaces) -> Spaces:
+    """A box's spaces derived from a platform's (`source`): in lockstep when the platform is."""
+    return announced(spaces, 0.0 if in_lockstep(source) else 1.0)
+
+
+def in_lockstep(spaces: Spaces) -> bool:
+    """Whether the loop's platform steps only once answered (only a literal true says so)."""
+    return spaces.extra.get(LOCKSTEP) is True

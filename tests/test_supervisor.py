@@ -6,6 +6,7 @@ import time
 
 import pytest
 
+from services.boxes.arbitrator import DEADLINE_MS
 from rigs.harness import REPO, Probe, dogged, dogged_ok, free_port, wait_until
 
 pytestmark = pytest.mark.live
@@ -81,6 +82,7 @@ def test_up_ps_sigkill_restart_down(tmp_path):
         ticks = wait(lambda: (t := ps(endpoint)["arbitrator"].get("ticks", {})).get("without_learner") and t, 10,
                      "the ticks without the learner in ps")
         assert 0 < ticks["without_learner_pct"] < 100, ticks
+        assert ticks["deadline_ms"] == DEADLINE_MS, ticks  # the platform ticks at 100 Hz: not in lockstep
         arbitrator_line = next(line for line in dogged_ok("ps", endpoint=endpoint).stdout.splitlines()
                                if line.startswith("arbitrator"))
         assert "without_learner=" in arbitrator_line and "without_learner_pct=" in arbitrator_line, arbitrator_line

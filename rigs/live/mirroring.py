@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema.spaces import Spaces
-from services.boxes.arbitrator import DEADLINE_MS
-from services.demo.live import LOCKSTEP_DEADLINE_MS, LiveRun, when_ready
+from services.demo.live import LiveRun, when_ready
 from services.experiments.wiring import wired_learner
 from services.platforms.aibo.joints import HEAD_PAN, HEAD_TILT
 from services.platforms.aibo.platform import JOINTS_BOX
@@ -35,7 +34,6 @@ args = ["--learner", "{learner}", "--seed", "{seed}"{learner_params}]
 
 [services.arbitrator]
 box = "arbitrator"
-args = ["--deadline-ms", "{deadline_ms}"]
 """
 TEACHER = """
 [services.{name}]
@@ -65,8 +63,7 @@ def start_mirroring(run_dir: Path, endpoint: str, learner: str | None = None, se
     blocks = "".join(TEACHER.format(name=n, teacher=t, params=param_args(p)) for n, (t, p) in specs.items())
     params = param_args(learner_params or {})
     pace = f'"--rate", "{RATE}"' if realtime else f'"--rate", "0", "--sim-hz", "{RATE}"'
-    deadline_ms = DEADLINE_MS if realtime else LOCKSTEP_DEADLINE_MS
-    profile.write_text(PROFILE.format(logs=run_dir / "logs", pace=pace, deadline_ms=deadline_ms, seed=seed,
+    profile.write_text(PROFILE.format(logs=run_dir / "logs", pace=pace, seed=seed,
                                       learner=learner, teachers=blocks, learner_params=params))
     return when_ready(LiveRun(profile, run_dir, endpoint))
 

@@ -19,6 +19,8 @@ import numpy as np
 import zenoh
 
 from bus_schema import ArenaReset, Clock, Frame, Handle, InstanceKeys, RobotKeys, RobotState, SpacesMessage, encode
+from bus_schema.spaces import announced
+from services.boxes.numbers import COUNT, POSITIVE_HZ, RATE_HZ, SECONDS
 from services.boxes.platform import PlatformLoop, finish, run_ticks
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
@@ -116,7 +118,7 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, seed: int, co
     inputs = "phase" if input_mode == "phase" else "joints"
     with AiboPlatform(seed=seed, command=command, gui=gui, inputs=inputs) as aibo, box:
         loop = AiboLoop(box, robot_keys, aibo, input_mode, camera_hz, latency_log)
-        robot_spaces = encode(SpacesMessage(aibo.spaces.to_dict()))
+        robot_spaces = encode(SpacesMessage(announced(aibo.spaces, rate_hz).to_dict()))
         box.subscribe(robot_keys.handle, "handle")
         box.subscribe(robot_keys.arena, "arena")
         box.queryable(robot_keys.spaces, "robot_spaces")
@@ -137,14 +139,14 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="aibo")
     parser.add_argument("--robot", default="aibo", help="robot name: its streams are under robot/<name>/")
-    parser.add_argument("--seed", type=int, default=0, help="the same seed gives the same arena and run")
+    parser.add_argument("--seed", type=COUNT, default=0, help="the same seed gives the same arena and run")
     parser.add_argument("--command", choices=COMMAND_MODES, default="joints")
     parser.add_argument("--input", choices=("joints", "camera", "phase"), default="joints", dest="input_mode")
-    parser.add_argument("--rate", type=float, default=30.0, help="control rate in Hz, real time; 0 = lockstep")
-    parser.add_argument("--sim-hz", type=float, default=30.0, help="simulated ticks per second in lockstep")
-    parser.add_argument("--camera-hz", type=float, default=15.0, help="frame rate beside the input (0: none)")
-    parser.add_argument("--watchdog", type=float, default=0.5)
-    parser.add_argument("--max-ticks", type=int, default=0)
+    parser.add_argument("--rate", type=RATE_HZ, default=30.0, help="control rate in Hz, real time; 0 = lockstep")
+    parser.add_argument("--sim-hz", type=POSITIVE_HZ, default=30.0, help="simulated ticks per second in lockstep")
+    parser.add_argument("--camera-hz", type=RATE_HZ, default=15.0, help="frame rate beside the input (0: none)")
+    parser.add_argument("--watchdog", type=SECONDS, default=0.5)
+    parser.add_argument("--max-ticks", type=COUNT, default=0)
     parser.add_argument("--gui", action="store_true", help="PyBullet's GUI (needs a display)")
     parser.add_argument("--latency-log", default=None)
     parser.add_argument("--summary", default=None)

@@ -17,17 +17,31 @@ import numpy as np
 import zenoh
 
 from bus_schema import Command, InstanceKeys, Input, PairBatch, Proposal, SelectLearner, TrainingPair, encode
+from bus_schema.spaces import in_lockstep
 from services.arbitration.algorithm2 import decide, trains
 from services.arbitration.recent_pairs import RecentPairs
 from services.arbitration.strategies import STRATEGIES, make_strategy
 from services.arbitration.ticks import TickTable
 from services.boxes.common import Membership
+from services.boxes.numbers import number
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.runtime import BoxRuntime
 
 MISSES_BEFORE_IGNORED = 5
 DEADLINE_MS = 20.0  # how long a tick waits for its members, by default: within a 30 Hz robot's tick
+# a platform in lockstep (--rate 0) has no real time to keep: its arbitrator waits longer by default. At 20 ms a
+# learner stalled for a fifth of a second (descheduled on a loaded machine) missed five deadlines in a row and was
+# no longer waited for, and the simulation, racing on at hundreds of ticks a second without it, held the
+# mirroring head for 43 ticks (CI); at 100 ms such a stall costs two ticks held
+LOCKSTEP_DEADLINE_MS = 100.0
+
+
+def deadline_ms_for(spaces, asked_ms: float | None) -> float:
+    """The tick's wait: `--deadline-ms` where given, else by the platform's pace (its spaces say lockstep)."""
+    if asked_ms is not None:
+        return asked_ms
+    return LOCKSTEP_DEADLINE_MS if in_lockstep(spaces) else DEADLINE_MS
 
 
 class Arbitrator:
@@ -203,28 +217,30 @@ class Arbitrator:
     def report(self) -> tuple[dict, dict]:
         counters = {"late_proposals": self.table.late}
         state = {"learner": self.active_learner() or "", "epoch": self.epoch, "seq": self.seq,
-                 "pending": len(self.table),
+                 "pending": len(self.table), "deadline_ms": round(self.table.deadline_s * 1000.0, 3),
                  "teaching": sorted(self.members.names("teaching")), "rejected_by_key": dict(self.rejects.counts),
                  "not_waited_for": self.silent()}
         return counters, state
 
 
 def main(conf: zenoh.Config, instance: str, name: str = "arbitrator", strategy: str = "teacher-first",
-         unsure_below: float = 0.25, deadline_ms: float = DEADLINE_MS, learner: str | None = None,
+         unsure_below: float = 0.25, deadline_ms: float | None = None, learner: str | None = None,
          train_on: str = "teacher", recent: int = 65536, strategy_params: dict | None = None) -> int:
     with BoxRuntime(conf, InstanceKeys(instance), "arbitrator", name) as box:
         chooser = make_strategy(strategy, unsure_below=unsure_below, **(strategy_params or {}))
         spaces = box.fetch_spaces()
         if spaces is None:
             return 0
+        deadline_ms = deadline_ms_for(spaces, deadline_ms)
         arb = Arbitrator(box, spaces, chooser, deadline_ms / 1000.0, learner, train_on, recent)
         box.subscribe_alive(box.keys.alive_all, "alive")
         box.subscribe(box.keys.input, "input")
         box.subscribe(box.keys.proposals, "proposal")
         box.subscribe(box.keys.select_learner, "select")
         box.queryable(box.keys.train_recent, "recent")
-        box.log.info("arbitrating %d -> %d dims with %s (unsure below %.2f)", spaces.input.dims, spaces.output.dims,
-                     strategy, unsure_below)
+        box.log.info("arbitrating %d -> %d dims with %s (unsure below %.2f), waiting %.0f ms a tick%s",
+                     spaces.input.dims, spaces.output.dims, strategy, unsure_below, deadline_ms,
+                     " (the platform is in lockstep)" if in_lockstep(spaces) else "")
         for batch in box.batches(arb.wait, arb.report):
             arb.handle(batch)
     return 0
@@ -236,13 +252,17 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="arbitrator")
     parser.add_argument("--strategy", choices=sorted(STRATEGIES), default="teacher-first")
-    parser.add_argument("--unsure-below", type=float, default=0.25, help="learner confidence that means 'unsure'")
-    parser.add_argument("--deadline-ms", type=float, default=DEADLINE_MS, help="how long a tick waits for proposals")
+    parser.add_argument("--unsure-below", type=number(at_least=0.0, at_most=1.0), default=0.25,
+                        help="learner confidence that means 'unsure'")
+    parser.add_argument("--deadline-ms", type=number(above=0.0, at_most=60_000.0), default=None,
+                        help=f"how long a tick waits for proposals (default: {DEADLINE_MS:g}; "
+                             f"{LOCKSTEP_DEADLINE_MS:g} when the platform runs in lockstep)")
     parser.add_argument("--learner", default=None, help="the learner that serves first (default: the oldest alive)")
     parser.add_argument("--train-on", choices=("teacher", "all"), default="teacher",
                         help="teacher: only teacher outputs train the learner; "
                              "all: every output does (Alg. 2 literally)")
-    parser.add_argument("--error-threshold", type=float, default=None, help="predictive strategy (Algorithm 1)")
+    parser.add_argument("--error-threshold", type=number(at_least=0.0), default=None,
+                        help="predictive strategy (Algorithm 1)")
     add_bus_args(parser)
     return parser
 

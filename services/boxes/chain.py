@@ -26,6 +26,8 @@ import numpy as np
 import zenoh
 
 from bus_schema import Box, Command, InstanceKeys, Input, SpacesMessage, encode
+from bus_schema.spaces import paced_like
+from services.boxes.numbers import SECONDS, number
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.runtime import BoxRuntime
@@ -51,7 +53,9 @@ def main(conf: zenoh.Config, upper: str, lower: str, name: str, consumer_spaces:
         extra_spaces = box.fetch_spaces(InstanceKeys(extra).spaces) if extra else None
         if upper_spaces is None or consumer is None or (extra and extra_spaces is None):
             return 0
-        spaces = lower_spaces(upper_spaces, consumer, extra_spaces)
+        # the lower level ticks when its clock does: in lockstep when that clock's platform is
+        spaces = paced_like(lower_spaces(upper_spaces, consumer, extra_spaces),
+                            extra_spaces if clock == "extra" else upper_spaces)
         payload = encode(SpacesMessage(spaces.to_dict()))
         pub = box.sensor_publisher(down.input)
         box.subscribe(up.command, "command")
@@ -106,9 +110,9 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--extra", default=None, help="an instance whose input stream is appended (e.g. joints)")
     parser.add_argument("--clock", choices=("upper", "extra"), default="upper",
                         help="whose ticks the lower level keeps: one per upper command, or one per extra sample")
-    parser.add_argument("--hold", type=float, default=0.5, metavar="SECONDS",
+    parser.add_argument("--hold", type=SECONDS, default=0.5, metavar="SECONDS",
                         help="with --clock extra: an upper command older than this gives way to rest")
-    parser.add_argument("--ease", type=float, default=0.0, metavar="SECONDS",
+    parser.add_argument("--ease", type=number(at_least=0.0, at_most=3600.0), default=0.0, metavar="SECONDS",
                         help="with --clock extra: ease each new upper command in over this time (0: at once)")
     parser.add_argument("--name", default="chain")
     parser.add_argument("--instance", help=argparse.SUPPRESS)

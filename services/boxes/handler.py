@@ -9,6 +9,7 @@ import argparse
 import zenoh
 
 from bus_schema import Clock, Handle, InstanceKeys, RobotKeys, encode
+from services.boxes.numbers import COUNT
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.runtime import BoxRuntime
@@ -41,7 +42,7 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--instance", default="main")
     parser.add_argument("--name", default="handler")
     parser.add_argument("--robot", default="aibo")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=COUNT, default=0)
     parser.add_argument("--no-tail", action="store_true", help="leave the tail alone")
     parser.add_argument("--distractors", choices=sorted(DISTRACTORS), default="mirroring",
                         help="which other joints move at random (mirroring: all but tail and head)")

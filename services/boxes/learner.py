@@ -25,6 +25,7 @@ import zenoh
 from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, Snapshot, TrainingPair, decode,
                         encode)
 from services.arbitration.algorithm2 import learn_pair
+from services.boxes.numbers import COUNT
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.queries import ask_owner
@@ -358,7 +359,7 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--name", default="learner")
     parser.add_argument("--learner", default=DEFAULT_LEARNER, help=f"one of: {', '.join(sorted(LEARNERS))}")
     parser.add_argument("--param", action="append", help="hyper-parameter name=value (repeatable)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=COUNT, default=0)
     parser.add_argument("--state-dir", default=None, help="log pairs here and replay them after a restart")
     parser.add_argument("--warm-from", default=None, help="hot-swap: take over from this learner")
     add_bus_args(parser)

@@ -13,6 +13,7 @@ import time
 import zenoh
 
 from bus_schema import Box, Frame, InstanceKeys, Input, RobotKeys, Spaces, SpacesMessage, encode
+from bus_schema.spaces import paced_like
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.runtime import BoxRuntime
@@ -71,7 +72,8 @@ def main(conf: zenoh.Config, instance: str, name: str, robot: str, colours: dict
         except ValueError as err:
             box.log.error("%s", err)
             return 2
-        spaces = Spaces(in_box, out_box, {"perception": f"colour blobs ({layout})", "robot": robot})
+        spaces = paced_like(Spaces(in_box, out_box, {"perception": f"colour blobs ({layout})", "robot": robot}),
+                            robot_spaces)
         spaces_payload = encode(SpacesMessage(spaces.to_dict()))
         pub = box.sensor_publisher(keys.input)
         box.subscribe(robot_keys.camera, "frame")

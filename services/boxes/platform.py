@@ -17,6 +17,8 @@ import numpy as np
 import zenoh
 
 from bus_schema import Applied, Command, InstanceKeys, Input, SpacesMessage, encode
+from bus_schema.spaces import announced
+from services.boxes.numbers import COUNT, POSITIVE_HZ, RATE_HZ, SECONDS
 from services.boxes.episodes import EpisodeReporter
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
@@ -169,7 +171,7 @@ def run_ticks(loop: PlatformLoop, handlers: dict, rate_hz: float, sim_hz: float,
     """The platform's clock: ticks at `rate_hz` (0: lockstep, the next tick as soon as this one is
     answered), applies commands, holds under the watchdog, and serves the spaces query."""
     box = loop.box
-    spaces_payload = encode(SpacesMessage(loop.platform.spaces.to_dict()))
+    spaces_payload = encode(SpacesMessage(announced(loop.platform.spaces, rate_hz).to_dict()))
     spaces_key = box.keys.spaces if spaces_key is None else spaces_key  # "": another box owns the spaces
     # chained instances: the robot obeys the lowest instance's commands (dl/<lower>/command) and
     # waits for that instance's arbitrator
@@ -244,12 +246,12 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--name", default="platform")
     parser.add_argument("--platform", choices=sorted(PLATFORMS), default="point")
     parser.add_argument("--param", action="append", help="platform parameter name=value (repeatable)")
-    parser.add_argument("--rate", type=float, default=30.0,
+    parser.add_argument("--rate", type=RATE_HZ, default=30.0,
                         help="control rate in Hz; 0 = lockstep, as fast as answered")
-    parser.add_argument("--sim-hz", type=float, default=30.0, help="simulated ticks per second in lockstep")
-    parser.add_argument("--watchdog", type=float, default=0.5,
+    parser.add_argument("--sim-hz", type=POSITIVE_HZ, default=30.0, help="simulated ticks per second in lockstep")
+    parser.add_argument("--watchdog", type=SECONDS, default=0.5,
                         help="seconds without a fresh command before holding still")
-    parser.add_argument("--max-ticks", type=int, default=0, help="stop after this many ticks (0: run until stopped)")
+    parser.add_argument("--max-ticks", type=COUNT, default=0, help="stop after this many ticks (0: run until stopped)")
     parser.add_argument("--latency-log", default=None, help="save every tick latency (s) to this .npy file at exit")
     parser.add_argument("--summary", default=None, help="write tick counts (JSON) to this file at exit")
     parser.add_argument("--command-from", default=None, metavar="INSTANCE",

@@ -28,6 +28,7 @@ from bus_schema import InstanceKeys, RecordSwitch, RobotKeys, SchemaError, Space
 from bus_schema.catalog import payload_of
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Rejects
+from services.boxes.numbers import number
 from services.bus.lifecycle import setup_logging
 from services.bus.runtime import BoxRuntime
 from services.recording.reader import is_finished, repair
@@ -221,11 +222,11 @@ def arg_parser() -> argparse.ArgumentParser:
     parser.add_argument("--robot", action="append", default=[], help="a robot's streams to record (repeatable)")
     parser.add_argument("--name", default="recorder")
     parser.add_argument("--out", required=True, help="the run's folder: MCAP files go here")
-    parser.add_argument("--rotate-mb", type=float, default=512.0, help="start a new file past this size")
-    parser.add_argument("--rotate-min", type=float, default=30.0, help="start a new file after this long")
-    parser.add_argument("--flush-s", type=float, default=0.5,
+    parser.add_argument("--rotate-mb", type=number(above=0.0), default=512.0, help="start a new file past this size")
+    parser.add_argument("--rotate-min", type=number(above=0.0), default=30.0, help="start a new file after this long")
+    parser.add_argument("--flush-s", type=number(above=0.0, at_most=1.0), default=0.5,
                         help="finish the chunk in progress this often (what a kill can lose)")
-    parser.add_argument("--inbox-mb", type=float, default=256.0,
+    parser.add_argument("--inbox-mb", type=number(at_least=1.0, at_most=65536.0), default=256.0,
                         help="what may wait to be written (a stalled disk, a flood); past it, samples are "
                              "dropped on arrival and counted as inbox_dropped")
     add_bus_args(parser)
@@ -235,10 +236,6 @@ def arg_parser() -> argparse.ArgumentParser:
 def cli(argv=None) -> int:
     parser = arg_parser()
     a = parser.parse_args(argv)
-    if a.rotate_mb <= 0 or a.rotate_min <= 0 or not 0 < a.flush_s <= 1.0:
-        parser.error("--rotate-mb and --rotate-min must be > 0, --flush-s in (0, 1]")
-    if not 1.0 <= a.inbox_mb <= 65536.0:
-        parser.error(f"--inbox-mb must be between 1 and 65536 (MiB), got {a.inbox_mb}")
     instances = list(dict.fromkeys(a.instance or ["main"]))
     return main(config_from_args(a), instances, list(dict.fromkeys(a.robot)), a.name, Path(a.out), a.rotate_mb,
                 a.rotate_min, a.flush_s, a.inbox_mb)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema import RobotState
-from services.demo.live import LOCKSTEP_DEADLINE_MS, LiveRun, decoded, when_ready
+from services.demo.live import LiveRun, decoded, when_ready
 from services.experiments.ballseek import BALLS, BALLSEEK_RATE_HZ, ball_in_view
 from services.experiments import ballseek_protocol as protocol
 from services.experiments.ballseek_protocol import ORANGE_FAR, TEACHING_SCHEDULE, Teaching, schedule_end
@@ -51,7 +51,6 @@ restart = "always"
 
 [services.arbitrator]
 box = "arbitrator"
-args = ["--deadline-ms", "{deadline_ms}"]
 """
 
 
@@ -169,8 +168,7 @@ def start_ballseek(run_dir: Path, endpoint: str, learner: str | None = None, see
     profile = run_dir / "ballseek.toml"
     params = "".join(f', "--param", "{k}={v}"' for k, v in (learner_params or {}).items())
     profile.write_text(PROFILE.format(logs=run_dir / "logs", rate=rate, seed=seed, learner=learner,
-                                      state=run_dir / "state", layout=layout, learner_params=params,
-                                      deadline_ms=LOCKSTEP_DEADLINE_MS))
+                                      state=run_dir / "state", layout=layout, learner_params=params))
     return when_ready(LiveRun(profile, run_dir, endpoint))
 
 

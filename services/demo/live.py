@@ -21,12 +21,6 @@ from services.supervisor.commands import wait_announced
 from services.waiting import poll
 
 REPO = Path(__file__).resolve().parents[2]
-# a lockstep simulation (the platform's --rate 0) has no real time to keep: its arbitrator waits longer for the
-# loop's members than the 20 ms a robot at 30 Hz can give. At 20 ms a learner that stalled for a fifth of a second
-# (descheduled on a loaded machine) missed five deadlines in a row and was no longer waited for, and the
-# simulation, racing at hundreds of ticks a second without it, held the mirroring head for 43 ticks (CI); at
-# 100 ms such a stall costs two ticks held
-LOCKSTEP_DEADLINE_MS = 100.0
 
 
 class BusRecorder:

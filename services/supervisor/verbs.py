@@ -4,6 +4,7 @@ at once."""
 from __future__ import annotations
 
 import itertools
+import math
 import logging
 import time
 
@@ -134,9 +135,13 @@ def not_running_row(name: str, box: str, state: str, **fields) -> dict:
 
 def tick_counters(status: dict) -> dict:
     """A platform's lost and stale ticks, as its status counts them; an arbitrator's ticks decided without the
-    learner's proposal (past the deadline, the learner not waited for, or none alive), and their share in %."""
+    learner's proposal (past the deadline, the learner not waited for, or none alive), their share in %, and
+    how long it waits for a tick's proposals."""
     counters = status.get("counters", {})
     out = {k: counters[k] for k in ("lost_ticks", "stale_commands", "without_learner") if k in counters}
+    deadline = status.get("state", {}).get("deadline_ms")  # state is free-form: only a finite number is shown
+    if isinstance(deadline, (int, float)) and not isinstance(deadline, bool) and math.isfinite(deadline):
+        out["deadline_ms"] = deadline
     if "without_learner" in out and counters.get("commands"):
         out["without_learner_pct"] = round(100 * out["without_learner"] / counters["commands"], 2)
     return out
