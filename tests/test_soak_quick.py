@@ -63,3 +63,9 @@ def test_the_stranger_gets_nothing(profile):
 def test_no_process_grows_without_bound(profile):
     assert profile["rss_mb_max"] < RSS_MB_BOUND
     assert profile["rss_grew_mb_max"] < GREW_MB_BOUND and profile["fds_grew_max"] < FDS_GREW_BOUND, profile
+
+
+def test_the_student_is_judged_beside_what_its_teaching_alone_makes_of_it(profile):
+    """(rigs/soak/taught.py: the wired learner trained offline on the recorded pairs, on the last span's inputs)"""
+    assert profile["student_error_last"] is not None
+    assert profile["student_error_taught_reference"] is not None and profile["student_error_taught_reference"] >= 0

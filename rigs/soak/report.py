@@ -65,7 +65,9 @@ def print_events(result) -> None:
     print(f"pairs: taught {f['pairs_taught']}, held {f['pairs_held']} (log {f['pairs_in_log']}, model "
           f"{f['pairs_in_memory']}), recorded {f['pairs_recorded']} ({f['pairs_missing_from_recording']} missing); "
           f"lost {f['pairs_lost']}; recording gaps: {f['recording_gaps_s']} s outside the faults, "
-          f"{f['recording_gaps_in_faults_s']} s inside; student error alone per span {f['student_errors']}")
+          f"{f['recording_gaps_in_faults_s']} s inside; student error alone per span {f['student_errors']}; "
+          f"the wired learner trained offline on the recorded pairs, on the last span's inputs: "
+          f"{f['student_error_taught_reference']}")
 
 
 def print_recordings(result) -> None:
@@ -100,5 +102,6 @@ def summary(results: dict) -> dict:
             "restarts": {f"{n}/{s}": k for n, f in per.items() for s, k in f["restarts"].items()},
             "student_error_first_lesson": {n: f["student_error_first_lesson"] for n, f in per.items()},
             "student_error_last": {n: f["student_error_last"] for n, f in per.items()},
+            "student_error_taught_reference": {n: f["student_error_taught_reference"] for n, f in per.items()},
             "recordings_all_open": all(f["recordings_all_open"] for f in per.values()),
             "profiles": per}

@@ -15,6 +15,7 @@ from rigs.soak.day import Pace, day, pace
 from rigs.soak.driver import Driver
 from rigs.soak.rig import Rig
 from rigs.soak.sample import RecordedSoFar
+from rigs.soak.taught import taught_reference
 from rigs.soak.watch import LoopWatch
 from rigs.harness import free_port
 
@@ -80,6 +81,7 @@ def soak_profile(name: str, work: Path, hours: float, quick: bool, keep: bool = 
         recorded.update()
         check = records.check(folder, work / "replays")
         log(f"{name}: stopped and its recordings checked after {time.monotonic() - began:.0f} s")
+        reference = reference_or_none(folder, rig, watch, name, began, log)  # (before the small disk goes)
         if keep:
             rig.keep(work)
             save_samples(work / "samples.json", driver)
@@ -91,12 +93,26 @@ def soak_profile(name: str, work: Path, hours: float, quick: bool, keep: bool = 
     observed = np.array([stamp for stamp, _ in watch.taken.inputs])
     gaps = records.missing_stretches(observed, recorded.stamps(), faults["kills"] + faults["fills"], 1.0 / rate)
     growth = fig.growth(driver.rows, p.warmup_s)
-    figures = profile_figures(driver, last, growth, check, gaps, recorded, every)
+    figures = profile_figures(driver, last, growth, check, gaps, recorded, every, reference[0])
     log(f"{name}: done in {time.monotonic() - began:.0f} s")
     return ProfileResult(name, p, driver, growth, check, figures)
 
 
-def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults) -> dict:
+def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began: float, log) -> tuple:
+    """taught_reference, logged; (None, 0) with the reason logged if it cannot be had: a figure beside the
+    others, whose absence must not cost the hour's."""
+    try:
+        reference = taught_reference(folder, rig.wired, rig.judge(), watch.taken.judged[1])
+    except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
+        log(f"{name}: no taught reference: {type(err).__name__}: {err}")
+        return None, 0
+    log(f"{name}: {rig.wired} trained offline on the {reference[1]} recorded pairs, judged on the last span's "
+        f"inputs, after {time.monotonic() - began:.0f} s")
+    return reference
+
+
+def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
+                    reference: float | None = None) -> dict:
     taken, pairs = d.watch.taken, last.pairs
     first_q, last_q = fig.quarter_p99s(taken.ticks, d.t0, d.pace.length_s, faults)
     errors = fig.alone_errors(taken.errors)
@@ -144,6 +160,8 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults) -> d
         "student_error_first_lesson": round(errors[0], 4) if errors else None,
         "student_error_last": round(errors[-1], 4) if errors else None,
         "student_errors": [round(e, 4) for e in errors],
+        # the wired learner trained offline on the recorded pairs, judged on the last span's inputs (taught.py)
+        "student_error_taught_reference": None if reference is None else round(reference, 4),
         "page": last.page, "page_rss_growth_mb_per_hour": page.rss_mb_per_hour if page else None,
         "page_js_heap_mb": (heaps[0], heaps[-1]) if heaps else None, "samples": len(d.rows),
     }

@@ -41,6 +41,7 @@ class Taken:
     ticks: list = field(default_factory=list)      # (command arrival, tick seconds, mode)
     answers: list = field(default_factory=list)    # (proposal arrival, seconds since its input arrived)
     errors: list = field(default_factory=list)     # (command arrival, alone span index, error)
+    judged: tuple = (None, [])                     # (the newest span judged, the inputs judged in it)
     inputs: list = field(default_factory=list)     # (input stamp, arrival): what the run published
     epochs: dict = field(default_factory=dict)     # arbitrator epoch -> the highest seq numbered in it
     learned: dict = field(default_factory=dict)    # learner name -> pairs its model holds (newest proposal)
@@ -123,6 +124,9 @@ class LoopWatch:
                 error = self.judge(seen[0], msg.y)
                 if error is not None:
                     t.errors.append((at, span, error))
+                    if t.judged[0] != span:
+                        t.judged = (span, [])
+                    t.judged[1].append(seen[0])
         for key, raw, _ in self._new(keys.train):
             msg = decoded(TrainingPair, key, raw)
             if msg is not None and msg.epoch in t.epochs:  # an epoch an arbitrator's status named
