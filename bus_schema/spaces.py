@@ -71,8 +71,10 @@ LOCKSTEP = "lockstep"  # extra: true when the platform steps only once its tick 
 
 
 def announced(spaces: Spaces, rate_hz: float) -> Spaces:
-    """The spaces as a platform announces them: marked `lockstep` when it runs at rate 0."""
-    return spaces if rate_hz else Spaces(spaces.input, spaces.output, {**spaces.extra, LOCKSTEP: True})
+    """The spaces as a platform announces them: marked `lockstep` when it runs at rate 0, and not otherwise
+    (a recorded run's spaces, played back at a rate, may say lockstep from when it was recorded)."""
+    extra = {k: v for k, v in spaces.extra.items() if k != LOCKSTEP}
+    return Spaces(spaces.input, spaces.output, extra if rate_hz else {**extra, LOCKSTEP: True})
 
 
 def paced_like(spaces: Spaces, source: Spaces) -> Spaces:

@@ -17,6 +17,8 @@ def test_a_platform_at_rate_0_is_announced_in_lockstep_and_at_a_rate_is_not():
     assert in_lockstep(announced(SPACES, 0.0)) and announced(SPACES, 0.0).extra["platform"] == "point"
     assert not in_lockstep(announced(SPACES, 30.0)) and announced(SPACES, 30.0) == SPACES
     assert in_lockstep(Spaces.from_dict(announced(SPACES, 0.0).to_dict()))  # as it crosses the bus
+    recorded_in_lockstep = announced(SPACES, 0.0)  # played back at a rate: not in lockstep any more
+    assert not in_lockstep(announced(recorded_in_lockstep, 30.0)) and announced(recorded_in_lockstep, 30.0) == SPACES
 
 
 @pytest.mark.parametrize("said", ["true", 1, "yes", [True], None])

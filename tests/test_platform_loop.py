@@ -6,6 +6,7 @@ import time
 import numpy as np
 import pytest
 
+from bus_schema.spaces import LOCKSTEP
 from bus_schema import Command, Frame, InstanceKeys, Input, RobotKeys, SpacesMessage, decode, encode
 from services.boxes import platform as box
 from services.boxes.aibo import AiboLoop
@@ -104,4 +105,6 @@ def test_its_clock_on_the_runtime_waits_for_an_arbitrator_then_ticks_in_lockstep
     assert box.SUBSCRIPTION_SETTLE_S <= took < box.SUBSCRIPTION_SETTLE_S + 2.0, "lockstep: no watchdog waits"
     assert not runtime.stop, "ended by its last tick, not stopped"
     [(key, payload)] = asked[0].replies
-    assert key == KEYS.spaces and decode(SpacesMessage, payload, key).spaces == point.spaces.to_dict()
+    # the spaces as the platform's, and said to be in lockstep: its arbitrator waits LOCKSTEP_DEADLINE_MS
+    served = decode(SpacesMessage, payload, key).spaces
+    assert key == KEYS.spaces and served == {**point.spaces.to_dict(), "extra": {**point.spaces.extra, LOCKSTEP: True}}
