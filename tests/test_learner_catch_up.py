@@ -151,3 +151,14 @@ def test_what_a_learner_starts_with_is_learned_as_offline_and_only_then_is_it_se
         twin.learn_one(x, y)
     probe = rng.uniform(-1.0, 1.0, (50, 2))
     assert np.array_equal(model.predict_many(probe).y, twin.predict_many(probe).y)
+
+
+def test_what_serving_live_needs_starts_with_the_service_on_a_copy_not_the_model(monkeypatch):
+    """(start_upkeep) Started by the model's serve_live after a catch-up, the GP's fitting processes (~400 MB) came
+    as growth of a learner running for minutes (tests/test_soak_quick.py's bound, in CI)."""
+    from services.learners import GP, start_upkeep
+    served = []
+    monkeypatch.setattr(GP, "serve_live", lambda self: served.append(self))
+    model = make_learner("gp", 2, 1, memory=100, fit_points=64)
+    start_upkeep(model)
+    assert len(served) == 1 and served[0] is not model and isinstance(served[0], GP)

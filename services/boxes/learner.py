@@ -30,7 +30,7 @@ from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.queries import ask_owner
 from services.bus.runtime import BoxRuntime
-from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner
+from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner, start_upkeep
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
 from services.params import parse_params
@@ -330,6 +330,7 @@ def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: st
             return 0
         model = make_learner(learner, n_in=spaces.input.dims, n_out=spaces.output.dims, seed=seed, **params)
         compile_kernels(model)
+        start_upkeep(model)  # the fitting processes with the service; the model serves live once caught up
         pairlog = PairLog(model.n_in, model.n_out, Path(state_dir) / f"{name}.pairs" if state_dir else None)
         node = LearnerNode(box, model, pairlog, spaces.output)
         box.subscribe(box.keys.train, "train")  # before warming: pairs published meanwhile wait, none is missed
