@@ -130,7 +130,8 @@ def test_pairs_a_loaded_learner_fell_behind_on_are_learned_between_answers_not_i
 def test_what_a_learner_starts_with_is_learned_as_offline_and_only_then_is_it_served_live():
     """(serve_live_once_caught_up) A restart's log learned with the GP's fits running behind the fast catch-up
     gave a worse student each time, and a different one: a ball-seeking soak's history 0.0080, 0.0316 and 0.0448
-    in three runs where offline 0.0070. Learned as offline, a restarted learner is what `dogged replay` makes."""
+    in three runs (the last paced on its fits) where offline 0.0070. Learned as offline, a restarted learner is
+    what `dogged replay` makes."""
     rng = np.random.default_rng(3)
     xs = rng.uniform(-1.0, 1.0, (300, 2))
     ys = np.sin(3.0 * xs[:, :1]) * xs[:, 1:]

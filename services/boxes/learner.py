@@ -181,7 +181,8 @@ class LearnerNode:
         started with (an earlier run's log, the old learner's history): that is learned as offline, fits inline
         at the counts an offline replay fits at, so a restart or a swap relearns exactly what `dogged replay`
         would. Learned live, fits ran behind the fast catch-up: the ball-seeking soak's 23,272 pairs of history
-        gave a GP that erred 0.0080, 0.0316 and 0.0448 on the last span's inputs (three runs), 0.0070 offline."""
+        gave a GP that erred 0.0080, 0.0316 and 0.0448 on the last span's inputs (three runs, the last paced on its
+        fits), 0.0070 offline."""
         if not self.backlog and not self.serving_live:
             self.model.serve_live()
             self.serving_live = True
