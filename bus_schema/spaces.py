@@ -73,13 +73,17 @@ LOCKSTEP = "lockstep"  # extra: true when the platform steps only once its tick 
 def announced(spaces: Spaces, rate_hz: float) -> Spaces:
     """The spaces as a platform announces them: marked `lockstep` when it runs at rate 0, and not otherwise
     (a recorded run's spaces, played back at a rate, may say lockstep from when it was recorded)."""
-    extra = {k: v for k, v in spaces.extra.items() if k != LOCKSTEP}
-    return Spaces(spaces.input, spaces.output, extra if rate_hz else {**extra, LOCKSTEP: True})
+    return marked(spaces, not rate_hz)
 
 
 def paced_like(spaces: Spaces, source: Spaces) -> Spaces:
     """A box's spaces derived from a platform's (`source`): in lockstep when the platform is."""
-    return announced(spaces, 0.0 if in_lockstep(source) else 1.0)
+    return marked(spaces, in_lockstep(source))
+
+
+def marked(spaces: Spaces, lockstep: bool) -> Spaces:
+    extra = {k: v for k, v in spaces.extra.items() if k != LOCKSTEP}
+    return Spaces(spaces.input, spaces.output, {**extra, LOCKSTEP: True} if lockstep else extra)
 
 
 def in_lockstep(spaces: Spaces) -> bool:

@@ -4,8 +4,8 @@ at once."""
 from __future__ import annotations
 
 import itertools
-import math
 import logging
+import math
 import time
 
 import zenoh
