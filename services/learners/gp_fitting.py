@@ -7,7 +7,6 @@ fit applied at the leaf's next call once done.
 from __future__ import annotations
 
 import logging
-import math
 import multiprocessing
 import os
 import threading
@@ -18,7 +17,8 @@ from functools import partial
 
 import numpy as np
 
-from .gp_evidence import Hyper, linear_share
+from .gp_evidence import Hyper
+from .gp_factor import Built, Shape, extend, fit_and_build, shape_of
 from .gp_split import RELEVANCE_RATIO, fit_and_split
 
 # refit early once the mean squared standardised error of the last taught ticks passes SURPRISED
@@ -154,7 +154,13 @@ class Refitting:
         if not self._background:
             self._adopt(job(consider), seen)
             return
-        self._pending = (_submit(_fitter, job, False), seen)
+        # the fitter builds the factor too, over the memory as it was, thinned there once full (to what _thin
+        # leaves): the answer path extends it by what was taught meanwhile (gp_factor)
+        m = self._m
+        drop = m - self.memory + max(1, self.memory // 8) if m >= self.memory else 0
+        memory = (m, self._thins, self._repeats[:m].copy())
+        self._pending = (_submit(_fitter, fit_and_build, job, memory[2], self._born[:m].copy(), drop,
+                                 self.noise_floor), seen + (memory,))
         if consider:
             self._searching = _submit(_splitter, job, True)
 
@@ -174,10 +180,12 @@ class Refitting:
 
     def _adopt(self, found: tuple, seen: tuple) -> None:
         """A fit and, where it was considered, a split its evidence favours (gp_split): the tree applies it."""
-        hyper, split = found
+        hyper, split = found[:2]
         both = hyper.varied & self._hyper.varied
         flipped = bool(np.any(np.abs(hyper.log_ell - self._hyper.log_ell)[both] >= RELEVANCE_RATIO))
-        self._use(hyper, seen)
+        self._use(hyper, seen[:2], rebuild=len(found) == 2)
+        if len(found) == 4:
+            self._land(*found[2:], seen[2])
         if split is not None:
             self.proposed_split = split
         elif flipped and self.may_split:
@@ -185,14 +193,30 @@ class Refitting:
             # samples came to outnumber the catch's): likely two regimes; weigh a split at the next sample
             self._split_check, self._next_fit = 0, self._y_count + 1
 
+    def _land(self, built: Built, keep: np.ndarray | None, memory: tuple) -> None:
+        """Served live: the memory thinned as the fitter chose (`keep`, if it did) and the factor it built over
+        that, extended by what was taught since; rebuilt where the memory was thinned here since (its rows
+        moved), a batch left the factor stale, or gp_factor.extend declines."""
+        seen_m, thins, seen_repeats = memory
+        if self._thins != thins or self._m < seen_m:
+            self._rebuild()
+            return
+        if keep is not None:
+            self._keep(np.concatenate([keep, np.arange(seen_m, self._m)]))
+            seen_m, seen_repeats = len(keep), seen_repeats[keep]
+        shape = Shape(self._inv_ell, self._smooth, self._linear, built.ratio)
+        if self._factored and not self._stale and extend(
+                built, seen_m, seen_repeats, self._xs, self._ys[:self._m] - self._hyper.mu, self._repeats, self._m,
+                self._hyper.centre, shape, self._chol, self._beta):
+            self._ratio = built.ratio
+        else:
+            self._rebuild()
+
     def _use(self, hyper: Hyper, seen: tuple | None = None, rebuild: bool = True) -> None:
         """Adopt a fit: the kernel's working quantities, the factor, and the refit triggers' baselines:
         the spread and count the fit saw (learning that went on while it ran is yet to be fitted)."""
         self._hyper = hyper
-        self._inv_ell = np.exp(-hyper.log_ell)
-        self._linear = linear_share(hyper.logit_linear)
-        self._smooth = 1.0 - self._linear
-        self._ratio = max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), self.noise_floor)
+        self._inv_ell, self._smooth, self._linear, self._ratio = shape_of(hyper, self.noise_floor)
         self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
         self._surprise = 0.0
         self._answer_cache = None

@@ -39,12 +39,12 @@ import math
 
 import numpy as np
 from scipy.linalg import solve_triangular
-from scipy.linalg.lapack import dpotrf as potrf
 from scipy.special import erf
 
 from . import gp_kernels
 from .base import FADE, Learner, Prediction, Predictions, check_positive, check_range, kernel_ready
 from .gp_evidence import Hyper, first_hyper
+from .gp_factor import Shape, factor_live
 from .gp_fitting import SURPRISE_REFIT_GAP, Refitting
 from .gp_memory import densest_older
 from .gp_repeats import Repeats
@@ -53,6 +53,8 @@ from .novelty import InputEnvelope
 # the smooth part's share of the prior variance under which the evidence calls a map linear: fits
 # of the mirroring map give 2e-5 to 5e-5, of random curved maps 0.06 to 0.98
 LINEAR_ENOUGH = 1e-3
+# served live, a full memory may take a sixteenth more while the fitter thins it (LocalGP._room)
+LIVE_ROOM = 16
 
 
 class LocalGP(Refitting, Repeats, Learner):
@@ -96,6 +98,7 @@ class LocalGP(Refitting, Repeats, Learner):
         self._surprise_gap = SURPRISE_REFIT_GAP  # samples a surprise must wait since the last fit
         self._background, self._pending = False, None  # serve_live: fits in another process
         self._searching = None  # serve_live: a search for a split under way in the splitter's process
+        self._thins = 0  # thinnings so far: a factor built elsewhere over rows since moved is not used
         self._answer_cache = None  # predict_one's constants (_constants)
         self._sd_cache = None  # (envelope count, _input_sd)
         self._use(first_hyper(n_in, n_out), rebuild=False)  # also sets the surprise and spread baselines
@@ -125,7 +128,7 @@ class LocalGP(Refitting, Repeats, Learner):
         self._answer_cache = None
 
     def _remember(self, x: np.ndarray, y: np.ndarray) -> None:
-        if self._m == self.memory:
+        if self._m >= self._room():
             self._thin()
         self._reserve(self._m + 1)
         m = self._m
@@ -147,6 +150,8 @@ class LocalGP(Refitting, Repeats, Learner):
                                      self._smooth, self._linear, self._ratio, before)
         self._m = m + 1
         self._weigh_surprise(y - self._hyper.mu - before, unit_var)
+        if self._background and self._m >= self.memory:
+            self._refit()  # full: the fitter thins it (at once, or with the fit under way's successor)
 
     def _input_sd(self) -> np.ndarray:
         """Each input's spread over everything learned (0 for an input that never varied); read-only, kept
@@ -172,7 +177,7 @@ class LocalGP(Refitting, Repeats, Learner):
         rows = self._xs.shape[0]
         if needed <= rows:
             return
-        grown = min(self.memory, max(needed, 2 * rows, 32))
+        grown = min(self.memory + self.memory // LIVE_ROOM, max(needed, 2 * rows, 32))
         for name in ("_xs", "_ys", "_born", "_repeats", "_beta"):
             old = getattr(self, name)
             new = np.zeros((grown,) + old.shape[1:], dtype=old.dtype)
@@ -182,19 +187,30 @@ class LocalGP(Refitting, Repeats, Learner):
         chol[:rows, :rows] = self._chol
         self._chol = chol
 
+    def _room(self) -> int:
+        """Samples remembered before a thinning here: `memory`; served live, a little more, taught while the fitter
+        thins the memory (gp_factor.fit_and_build): this only once it falls behind."""
+        aside = self._background and self._factored and not self._deferring
+        return self.memory + (self.memory // LIVE_ROOM if aside else 0)
+
     def _thin(self) -> None:
         """Forget an eighth of the memory where it is densest: repeatedly, of the closest two samples
         left, the older (gp_memory.densest_older)."""
-        dropped = densest_older(self._xs[:self._m] * self._inv_ell, self._born[:self._m], max(1, self.memory // 8))
-        keep = np.flatnonzero(~dropped)
-        for name in ("_xs", "_ys", "_born", "_repeats"):
-            array = getattr(self, name)
-            array[:len(keep)] = array[keep]
-        self._m = len(keep)
+        m, drop = self._m, self._m - self.memory + max(1, self.memory // 8)
+        self._keep(np.flatnonzero(~densest_older(self._xs[:m] * self._inv_ell, self._born[:m], drop)))
         if self._factored and self._deferring:
             self._stale = True
         elif self._factored:
             self._rebuild()
+
+    def _keep(self, rows: np.ndarray) -> None:
+        """The memory becomes these rows, in this order (ascending: the order taught); its factor is yet to be
+        built."""
+        for name in ("_xs", "_ys", "_born", "_repeats"):
+            array = getattr(self, name)
+            array[:len(rows)] = array[rows]
+        self._m = len(rows)
+        self._thins += 1
 
     def defer_factor(self, deferring: bool) -> None:
         """Served live, a batch (gp.GP.learn_many) keeps the factor stale until it ends, then rebuilds it
@@ -254,19 +270,12 @@ class LocalGP(Refitting, Repeats, Learner):
         self._factored, self._stale = True, False
 
     def _factor_live(self) -> np.ndarray:
-        """The lower Cholesky factor of the kernel matrix plus noise over the memory: the matrix's lower triangle
-        compiled (numpy's whole matrix took 10-18 ms of a 20 ms rebuild at 800 samples), factored in place (C
-        order's lower triangle is Fortran order's upper one)."""
-        m = self._m
-        unit = np.empty((m, m))
-        gp_kernels.gram(self._xs, m, self._inv_ell, self._hyper.centre, self._smooth, self._linear, unit)
-        while True:
-            gram = unit.copy()
-            gram.flat[::m + 1] += self._ratio / self._repeats[:m]
-            upper, failed = potrf(gram.T, lower=0, clean=1, overwrite_a=1)
-            if failed == 0:
-                return upper.T
-            self._ratio *= 10.0  # rounding on near-duplicates: more noise, never a crash
+        """The factor by the compiled kernel matrix (gp_factor.factor_live), its noise ratio raised where rounding
+        needed it."""
+        built = factor_live(self._xs, self._m, self._repeats, self._hyper.centre,
+                            Shape(self._inv_ell, self._smooth, self._linear, self._ratio))
+        self._ratio = built.ratio
+        return built.chol
 
     def _kernel(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         za, zb = (a - self._hyper.centre) * self._inv_ell, (b - self._hyper.centre) * self._inv_ell
@@ -381,4 +390,5 @@ class LocalGP(Refitting, Repeats, Learner):
         super().__setstate__(state)
         if len(self._repeats) != len(self._xs):  # a snapshot from before repeats were counted: each taught once
             self._repeats = np.ones(len(self._xs))
+        self.__dict__.setdefault("_thins", 0)
 
