@@ -169,9 +169,18 @@ def logs(args) -> int:
     return 0 if reply.ok else 1
 
 
+# a swap's new learner learns the history first, as offline (services.boxes.learner), while the old one serves: an
+# hour of mirroring's teaching (50,092 pairs) took the per-output GP about 4 min; the supervisor waits as long as it
+# learns (services.supervisor.swap), and this as long as that may take
+SWAP_WAIT_S = 1800.0
+
+
 def swap(args) -> int:
-    reply = _ask(args, "swap", f"service={args.service};spec={args.spec}", timeout=180.0)
+    print(f"swapping: the new learner learns the history first while the old one serves (up to minutes; `dogged ps` "
+          f"shows its backlog); waiting up to {SWAP_WAIT_S:g} s", file=sys.stderr)
+    reply = _ask(args, "swap", f"service={args.service};spec={args.spec}", timeout=SWAP_WAIT_S)
     if reply is None:
+        print("the swap may still be under way: `dogged ps` shows whether the new learner serves", file=sys.stderr)
         return 1
     print(reply.text)
     return 0 if reply.ok else 1
