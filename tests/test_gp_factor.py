@@ -13,11 +13,11 @@ from services.waiting import poll
 N_IN, N_OUT, M = 4, 2, 60
 
 
-def memory(seed: int = 0):
+def memory(seed: int = 0, n_out: int = N_OUT):
     rng = np.random.default_rng(seed)
     xs = rng.uniform(-1.0, 1.0, (M, N_IN))
-    residual = np.column_stack([np.sin(2.0 * xs[:, 0]), xs[:, 1] * xs[:, 2]])
-    hyper = first_hyper(N_IN, N_OUT)
+    residual = np.column_stack([np.sin((2.0 + o) * xs[:, o % N_IN]) * xs[:, (o + 1) % N_IN] for o in range(n_out)])
+    hyper = first_hyper(N_IN, n_out)
     return xs, residual, hyper, shape_of(hyper, 1e-5)
 
 
@@ -27,9 +27,10 @@ def whole(xs, residual, repeats, hyper, shape):
     return built.chol, beta
 
 
+@pytest.mark.parametrize("n_out", [N_OUT, 18])  # beta by the compiled loop, by LAPACK
 @pytest.mark.parametrize("seen_m,reweighed", [(M, []), (40, []), (40, [3, 45]), (M, [0, 7, 59]), (25, [24, 26])])
-def test_an_extended_factor_is_the_factor_of_the_memory_as_it_is(seen_m, reweighed):
-    xs, residual, hyper, shape = memory()
+def test_an_extended_factor_is_the_factor_of_the_memory_as_it_is(seen_m, reweighed, n_out):
+    xs, residual, hyper, shape = memory(n_out=n_out)
     seen_repeats = np.ones(M)
     seen_repeats[[1, 2]] = 3.0  # weighed again before the fit saw them
     built = factor_live(xs, seen_m, seen_repeats, hyper.centre, shape)
@@ -37,7 +38,7 @@ def test_an_extended_factor_is_the_factor_of_the_memory_as_it_is(seen_m, reweigh
     repeats[seen_m:] = 1.0
     for row in reweighed:
         repeats[row] += 2.0
-    chol, beta = np.zeros((M, M)), np.zeros((M, N_OUT))
+    chol, beta = np.zeros((M, M)), np.zeros((M, n_out))
     assert extend(built, seen_m, seen_repeats, xs, residual, repeats, M, hyper.centre, shape, chol, beta)
     want_chol, want_beta = whole(xs, residual, repeats, hyper, shape)
     assert np.allclose(chol, want_chol, atol=1e-9)
