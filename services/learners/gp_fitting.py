@@ -157,7 +157,7 @@ class Refitting:
         # the fitter builds the factor too, over the memory as it was, thinned there once full (to what _thin
         # leaves): the answer path extends it by what was taught meanwhile (gp_factor)
         m = self._m
-        drop = m - self.memory + max(1, self.memory // 8) if m >= self.memory else 0
+        drop = self._to_forget() if m >= self.memory else 0
         memory = (m, self._thins, self._repeats[:m].copy())
         self._pending = (_submit(_fitter, fit_and_build, job, memory[2], self._born[:m].copy(), drop,
                                  self.noise_floor), seen + (memory,))

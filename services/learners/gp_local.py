@@ -196,12 +196,17 @@ class LocalGP(Refitting, Repeats, Learner):
     def _thin(self) -> None:
         """Forget an eighth of the memory where it is densest: repeatedly, of the closest two samples
         left, the older (gp_memory.densest_older)."""
-        m, drop = self._m, self._m - self.memory + max(1, self.memory // 8)
-        self._keep(np.flatnonzero(~densest_older(self._xs[:m] * self._inv_ell, self._born[:m], drop)))
+        m = self._m
+        self._keep(np.flatnonzero(~densest_older(self._xs[:m] * self._inv_ell, self._born[:m], self._to_forget())))
         if self._factored and self._deferring:
             self._stale = True
         elif self._factored:
             self._rebuild()
+
+    def _to_forget(self) -> int:
+        """How many samples a thinning of the memory as it is forgets: down to what an eighth less than `memory`
+        leaves, whether thinned here at `memory` or by the fitter past it."""
+        return self._m - self.memory + max(1, self.memory // 8)
 
     def _keep(self, rows: np.ndarray) -> None:
         """The memory becomes these rows, in this order (ascending: the order taught); its factor is yet to be
