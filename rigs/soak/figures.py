@@ -16,30 +16,47 @@ class Growth:
     service: str
     pid: int
     rss_mb_per_hour: float
-    fds_per_hour: float
+    fds_per_hour: float | None  # None: too few samples with the bus's usual members
     rss_mb: tuple          # (first, last) after its first stretch
-    fds: tuple
+    fds: tuple             # likewise, of the samples the bus had its usual members
     points: int
+    fd_points: int         # those samples
 
 
 def growth(rows, warmup_s: float) -> list[Growth]:
     """Per process (a service's each run: a restart is another pid), its growth after `warmup_s` of being
-    seen, from the samples; processes seen too briefly are left out."""
+    seen, from the samples; processes seen too briefly are left out. The fds only over the samples in which the
+    bus had as many members as usual: each Zenoh peer holds two sockets for every other peer while it lives (a
+    swap's new learner catching up for minutes beside the old one: two more in every process, gone when the
+    old one leaves; tests/test_fds_peers.py), which is the membership's size, not a leak."""
+    usual = usual_members(rows)
     series: dict[tuple[str, int], list] = {}
     for row in rows:
         for name, p in row.procs.items():
-            series.setdefault((name, p.pid), []).append((row.t, p.rss_mb, p.fds))
+            series.setdefault((name, p.pid), []).append((row.t, p.rss_mb, p.fds, len(row.procs) == usual))
     out = []
     for (name, pid), points in series.items():
         born = points[0][0]
-        kept = np.array([p for p in points if p[0] - born >= warmup_s])
+        kept = np.array([p for p in points if p[0] - born >= warmup_s], dtype=float)
         if len(kept) < MIN_POINTS or kept[-1, 0] - kept[0, 0] <= 0:
             continue
         hours = kept[:, 0] / 3600.0
-        rss, fds = np.polyfit(hours, kept[:, 1], 1)[0], np.polyfit(hours, kept[:, 2], 1)[0]
-        out.append(Growth(name, pid, round(float(rss), 2), round(float(fds), 2),
-                          (kept[0, 1], kept[-1, 1]), (int(kept[0, 2]), int(kept[-1, 2])), len(kept)))
+        rss = np.polyfit(hours, kept[:, 1], 1)[0]
+        usual_fds = kept[kept[:, 3] > 0]
+        fd_slope, fds = None, (None, None)
+        if len(usual_fds):
+            fds = (int(usual_fds[0, 2]), int(usual_fds[-1, 2]))
+        if len(usual_fds) >= MIN_POINTS and usual_fds[-1, 0] > usual_fds[0, 0]:
+            fd_slope = round(float(np.polyfit(usual_fds[:, 0] / 3600.0, usual_fds[:, 2], 1)[0]), 2)
+        out.append(Growth(name, pid, round(float(rss), 2), fd_slope,
+                          (kept[0, 1], kept[-1, 1]), fds, len(kept), len(usual_fds)))
     return out
+
+
+def usual_members(rows) -> int:
+    """How many processes the samples most often saw (one more while a swap's learner catches up)."""
+    sizes = [len(row.procs) for row in rows]
+    return max(set(sizes), key=sizes.count) if sizes else 0
 
 
 def outside(times: np.ndarray, windows: list[tuple[float, float]]) -> np.ndarray:

@@ -43,10 +43,15 @@ def print_samples(result) -> None:
 def print_growth(result) -> None:
     print(f"\n{result.name}: each process after its first {result.pace.warmup_s:.0f} s (a restart is a new pid; "
           "a service with the processes it spawned)")
-    print(f"{'process':<22}{'pid':>8}{'RSS MB':>16}{'MB/h':>9}{'fds':>12}{'fds/h':>8}{'samples':>9}")
+    print(f"{'process':<22}{'pid':>8}{'RSS MB':>16}{'MB/h':>9}{'fds':>12}{'fds/h':>8}{'samples':>9}"
+          f"{'for fds':>9}")
     for g in sorted(result.growth, key=lambda g: -g.rss_mb_per_hour):
+        fds = "-" if g.fds_per_hour is None else f"{g.fds[0]}->{g.fds[1]}"
+        per_hour = "-" if g.fds_per_hour is None else f"{g.fds_per_hour:.1f}"
         print(f"{g.service:<22}{g.pid:>8}{g.rss_mb[0]:>8.1f}->{g.rss_mb[1]:<6.1f}{g.rss_mb_per_hour:>9.1f}"
-              f"{g.fds[0]:>6}->{g.fds[1]:<4}{g.fds_per_hour:>8.1f}{g.points:>9}")
+              f"{fds:>12}{per_hour:>8}{g.points:>9}{g.fd_points:>9}")
+    print("fds: over the samples in which the bus had its usual members (a swap's new learner catching up beside "
+          "the old one is one more peer: two more sockets in every process while both live)")
 
 
 def print_events(result) -> None:

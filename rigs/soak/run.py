@@ -118,7 +118,8 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
     errors = fig.alone_errors(taken.errors)
     services = [g for g in growth if g.service != "page"]  # the browser's is the page's own figure
     worst_rss = max(services, key=lambda g: g.rss_mb_per_hour, default=None)
-    worst_fds = max(services, key=lambda g: g.fds_per_hour, default=None)
+    counted = [g for g in services if g.fds_per_hour is not None]
+    worst_fds = max(counted, key=lambda g: g.fds_per_hour, default=None)
     page = next((g for g in growth if g.service == "page"), None)
     heaps = [row.page.get("js_heap_mb") for row in d.rows if row.page.get("js_heap_mb") is not None]
     recorded_pairs = recorded.pairs()
@@ -130,7 +131,7 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
         "rss_growth_mb_per_hour": worst_rss.rss_mb_per_hour if worst_rss else None,
         "rss_mb_max": max((p.rss_mb for row in d.rows for n, p in row.procs.items() if n != "page"), default=None),
         "rss_grew_mb_max": round(max((g.rss_mb[1] - g.rss_mb[0] for g in services), default=0.0), 2),
-        "fds_grew_max": max((g.fds[1] - g.fds[0] for g in services), default=0),
+        "fds_grew_max": max((g.fds[1] - g.fds[0] for g in counted), default=0),
         "rss_growth_worst": f"{worst_rss.service} (pid {worst_rss.pid})" if worst_rss else None,
         "fd_growth_per_hour": worst_fds.fds_per_hour if worst_fds else None,
         "fd_growth_worst": f"{worst_fds.service} (pid {worst_fds.pid})" if worst_fds else None,
