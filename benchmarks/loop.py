@@ -10,6 +10,9 @@ deployed by default, then in low-latency mode (a PM QoS request keeping CPUs out
 `low_latency = true` in a profile); keys of the second carry `_low_latency`; the 100 Hz loop is
 also measured with a recorder writing every sample (`_recorded`: every profile runs one), and split
 into hops as an observer on the bus sees them (`hop_us_*`, benchmarks/lib/hops.py).
+Beside them the null tick (benchmarks/lib/null_tick.py): the loop's processes and hops with no work in
+them, at 100 Hz and 1 kHz (`tick_null_ms[_1khz]`, `tick_null_over_floor[_1khz]`, `tick_p50_over_null[_1khz]`):
+what the loop's shape costs beyond the floor, and what the services' own work and waits cost beyond that.
 
 Then what users run (issue 34): each profile of deploy/ as it is, with its wired learner, while a teacher
 teaches and while the student drives (`<profile>_tick_*`, beside `<profile>_tick_floor_ms`, the Zenoh round
@@ -35,7 +38,7 @@ import time
 import numpy as np
 
 from benchmarks.lib.hops import DESCRIBED, HOPS, HopObserver  # noqa: E402
-from benchmarks.lib import learner_costs, profile_ticks, zenoh_echo  # noqa: E402
+from benchmarks.lib import learner_costs, null_tick, profile_ticks, zenoh_echo  # noqa: E402
 from benchmarks.lib.udp_echo import round_trips  # noqa: E402
 from rigs.harness import Probe, dogged, free_port, stop  # noqa: E402
 from services.realtime import hold_low_latency, release_low_latency  # noqa: E402
@@ -132,6 +135,8 @@ def main(quick: bool) -> dict:
     probe, observer = Probe(router), HopObserver(router)
     try:
         echoed = zenoh_floor(router, quick)  # before the loop runs: alone on the bus
+        nulls = {rate: null_tick.ticks(router, rate, int(rate * seconds))  # the loop's shape, no work
+                 for rate, seconds in ((100.0, 10 if quick else 30), (1000.0, 5 if quick else 20))}
         time.sleep(3)  # services up, kernels compiled
         rows, figures = measure(router, work, quick, "default", observer)
         rows.append(recorded_row(router, work, quick))  # what a profile's recorder costs the tick
@@ -166,6 +171,13 @@ def main(quick: bool) -> dict:
     figures["tick_floor_ms_1khz"] = round(1.5 * figures["zenoh_rtt_ms_1khz"], 4)
     figures["tick_p50_over_floor"] = round(figures["tick_p50_ms"] / figures["tick_floor_ms"], 2)
     figures["tick_p50_over_floor_1khz"] = round(figures["tick_p50_ms_1khz"] / figures["tick_floor_ms_1khz"], 2)
+    for rate, suffix in ((100.0, ""), (1000.0, "_1khz")):
+        null = nulls[rate]
+        p50, p99 = round(float(np.nanpercentile(null, 50)), 4), round(float(np.nanpercentile(null, 99)), 4)
+        figures[f"tick_null_ms{suffix}"], figures[f"tick_null_p99_ms{suffix}"] = p50, p99
+        figures[f"tick_null_over_floor{suffix}"] = round(p50 / figures[f"tick_floor_ms{suffix}"], 2)
+        figures[f"tick_p50_over_null{suffix}"] = round(figures[f"tick_p50_ms{suffix}"] / p50, 2)
+        floor_rows.append((f"null tick {rate:g} Hz", len(null), p50, p99, int(np.isnan(null).sum())))
     print(f"{'run':<22}{'ticks':>8}{'p50 ms':>10}{'p99 ms':>10}{'lost':>7}{'p50/UDP':>10}")
     print(f"{'UDP round trip':<22}{len(udp):>8}{figures['udp_rtt_ms']:>10.3f}{figures['udp_rtt_p99_ms']:>10.3f}"
           f"{0:>7}{1.0:>10.1f}")
@@ -174,7 +186,10 @@ def main(quick: bool) -> dict:
     for label, suffix in (("100 Hz", ""), ("1000 Hz", "_1khz")):
         floor = figures[f"tick_floor_ms{suffix}"]
         print(f"{'floor ' + label:<22}{'':>8}{floor:>10.3f}{'':>10}{'':>7}{floor / figures['udp_rtt_ms']:>10.1f}"
-              f"   (1.5 Zenoh RTTs at {label}; the tick is {figures[f'tick_p50_over_floor{suffix}']:.2f}x it)")
+              f"   (1.5 Zenoh RTTs at {label}; the tick is {figures[f'tick_p50_over_floor{suffix}']:.2f}x it, the null "
+              f"tick {figures[f'tick_null_over_floor{suffix}']:.2f}x)")
+    print("null tick: the loop's processes and hops (input to a learner, its proposal to an arbitrator, the command "
+          "back) with no work in them (benchmarks/lib/null_tick.py)")
     for name, n, p50, p99, lost in rows:
         print(f"{name:<22}{n:>8}{p50:>10.3f}{p99:>10.3f}{lost:>7}{p50 / figures['udp_rtt_ms']:>10.1f}")
     print(f"\n{'hop (100 Hz, median)':<58}{'default us':>12}{'low-lat us':>12}")

@@ -24,11 +24,12 @@ PING, PONG = "bench/echo/ping", "bench/echo/pong"
 WARM_UP = 200
 
 
-def echo(router: str, seconds: float) -> None:
+def echo(router: str, seconds: float, hear: str = PING, say: str = PONG) -> None:
+    """Each sample heard on `hear` said again on `say`, for `seconds`."""
     inbox = Inbox()
     with zenoh.open(zenoh_config(connect=[router])) as session:
-        pub = sensor_publisher(session, PONG)
-        sub = session.declare_subscriber(PING, inbox.callback("ping"))
+        pub = sensor_publisher(session, say)
+        sub = session.declare_subscriber(hear, inbox.callback("ping"))
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             for _, _, raw, _ in inbox.drain(0.1):
