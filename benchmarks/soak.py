@@ -27,7 +27,8 @@ after its first 10 minutes), fd_growth_per_hour, tick_p99_ms_first_quarter and t
 (per profile), pairs_lost, recording_gaps_s (outside the faults), restarts (by service),
 student_error_first_lesson and student_error_last (per profile), student_error_taught_reference (the wired
 learner trained offline on the recorded pairs, judged on the last span's inputs: what the teaching alone makes of
-the student), recordings_all_open, and each profile's figures under "profiles". Targets (reported, not
+the student), student_error_program_reference (the same, on the pairs the program's teachers taught: the
+page person's keys left out), recordings_all_open, and each profile's figures under "profiles". Targets (reported, not
 asserted): no process grows more than 20 MB an hour, no file descriptor leak, last-quarter p99 within 1.2x the
 first's, 0 pairs lost, every recording opens, the student alone at the end as good as after its first lesson.
 """

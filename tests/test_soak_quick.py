@@ -69,3 +69,5 @@ def test_the_student_is_judged_beside_what_its_teaching_alone_makes_of_it(profil
     """(rigs/soak/taught.py: the wired learner trained offline on the recorded pairs, on the last span's inputs)"""
     assert profile["student_error_last"] is not None
     assert profile["student_error_taught_reference"] is not None and profile["student_error_taught_reference"] >= 0
+    program = profile["student_error_program_reference"]  # the person's pairs left out
+    assert program is not None and program >= 0

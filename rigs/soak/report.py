@@ -72,7 +72,8 @@ def print_events(result) -> None:
           f"lost {f['pairs_lost']}; recording gaps: {f['recording_gaps_s']} s outside the faults, "
           f"{f['recording_gaps_in_faults_s']} s inside; student error alone per span {f['student_errors']}; "
           f"the wired learner trained offline on the recorded pairs, on the last span's inputs: "
-          f"{f['student_error_taught_reference']}")
+          f"{f['student_error_taught_reference']}; on the program's teachers' pairs alone (the person's left out): "
+          f"{f['student_error_program_reference']}")
 
 
 def print_recordings(result) -> None:
@@ -108,5 +109,6 @@ def summary(results: dict) -> dict:
             "student_error_first_lesson": {n: f["student_error_first_lesson"] for n, f in per.items()},
             "student_error_last": {n: f["student_error_last"] for n, f in per.items()},
             "student_error_taught_reference": {n: f["student_error_taught_reference"] for n, f in per.items()},
+            "student_error_program_reference": {n: f["student_error_program_reference"] for n, f in per.items()},
             "recordings_all_open": all(f["recordings_all_open"] for f in per.values()),
             "profiles": per}

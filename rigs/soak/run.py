@@ -93,26 +93,31 @@ def soak_profile(name: str, work: Path, hours: float, quick: bool, keep: bool = 
     observed = np.array([stamp for stamp, _ in watch.taken.inputs])
     gaps = records.missing_stretches(observed, recorded.stamps(), faults["kills"] + faults["fills"], 1.0 / rate)
     growth = fig.growth(driver.rows, p.warmup_s)
-    figures = profile_figures(driver, last, growth, check, gaps, recorded, every, reference[0])
+    figures = profile_figures(driver, last, growth, check, gaps, recorded, every, *reference)
     log(f"{name}: done in {time.monotonic() - began:.0f} s")
     return ProfileResult(name, p, driver, growth, check, figures)
 
 
 def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began: float, log) -> tuple:
-    """taught_reference, logged; (None, 0) with the reason logged if it cannot be had: a figure beside the
-    others, whose absence must not cost the hour's."""
-    try:
-        reference = taught_reference(folder, rig.wired, rig.judge(), watch.taken.judged[1])
-    except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
-        log(f"{name}: no taught reference: {type(err).__name__}: {err}")
-        return None, 0
-    log(f"{name}: {rig.wired} trained offline on the {reference[1]} recorded pairs, judged on the last span's "
-        f"inputs, after {time.monotonic() - began:.0f} s")
-    return reference
+    """(taught_reference's error on every recorded pair, and on the program's teachers' alone), logged; None for
+    one with the reason logged if it cannot be had: figures beside the others, whose absence must not cost the
+    hour's."""
+    out = []
+    for what, sources in (("the", None), ("the program's teachers'", {f"teacher/{t}" for t in rig.teachers})):
+        try:
+            error, pairs = taught_reference(folder, rig.wired, rig.judge(), watch.taken.judged[1], sources)
+        except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
+            log(f"{name}: no reference on {what} recorded pairs: {type(err).__name__}: {err}")
+            out.append(None)
+            continue
+        log(f"{name}: {rig.wired} trained offline on {what} {pairs} recorded pairs, judged on the last span's inputs: "
+            f"{error}, after {time.monotonic() - began:.0f} s")
+        out.append(error)
+    return tuple(out)
 
 
 def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
-                    reference: float | None = None) -> dict:
+                    reference: float | None = None, program_reference: float | None = None) -> dict:
     taken, pairs = d.watch.taken, last.pairs
     first_q, last_q = fig.quarter_p99s(taken.ticks, d.t0, d.pace.length_s, faults)
     errors = fig.alone_errors(taken.errors)
@@ -163,6 +168,8 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
         "student_errors": [round(e, 4) for e in errors],
         # the wired learner trained offline on the recorded pairs, judged on the last span's inputs (taught.py)
         "student_error_taught_reference": None if reference is None else round(reference, 4),
+        # and on the pairs the program's teachers taught (the page person's left out)
+        "student_error_program_reference": None if program_reference is None else round(program_reference, 4),
         "page": last.page, "page_rss_growth_mb_per_hour": page.rss_mb_per_hour if page else None,
         "page_js_heap_mb": (heaps[0], heaps[-1]) if heaps else None, "samples": len(d.rows),
     }

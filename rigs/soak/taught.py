@@ -5,7 +5,8 @@ the run recorded (in the order learned), judged on the inputs of the last span a
 The student is judged against the program, but a soak's teaching is not only the program's: the person at the
 page presses keys, whole turns and steps where the program turns by degrees, and a student taught them answers
 them. The live student's last error beside this one tells what the day itself cost it (kills, swaps, restarts,
-lost pairs), apart from what it was taught."""
+lost pairs), apart from what it was taught; and the same learner trained only on the program's teachers' pairs
+(the person's left out), what the person's keys cost it: whether more of the program's teaching ever made it worse."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,15 +14,24 @@ from pathlib import Path
 import numpy as np
 
 from services.recording.runs import load_run
+from services.arbitration.algorithm2 import learn_pair
 from services.replay.replay import learn_all, learner_from_spec
 
 
-def taught_reference(folder: Path, spec: str, judge, inputs: list) -> tuple[float | None, int]:
+def taught_reference(folder: Path, spec: str, judge, inputs: list, sources: set[str] | None = None
+                     ) -> tuple[float | None, int]:
     """(the mean error over `inputs` of `spec` trained on the recording's pairs, how many pairs); None when
-    there is nothing to judge."""
+    there is nothing to judge. With `sources`, only the pairs those taught (teacher/<name>), in the same order."""
     run = load_run(folder)
     model = learner_from_spec(spec, run.spaces.input.dims, run.spaces.output.dims, 0)
-    learn_all(model, run, len(run.pair_x))
+    if sources is None:
+        learn_all(model, run, len(run.pair_x))
+        taught = len(run.pair_x)
+    else:
+        chosen = np.flatnonzero(np.isin(run.pair_sources, sorted(sources)))
+        for i in chosen:
+            learn_pair(model, run.pair_x[i], run.pair_y[i], run.pair_mask[i])
+        taught = len(chosen)
     errors = [judge(x, run.spaces.output.clip(model.predict_one(x).y)) for x in inputs]
     errors = [e for e in errors if e is not None]
-    return (float(np.mean(errors)) if errors else None), len(run.pair_x)
+    return (float(np.mean(errors)) if errors else None), taught

@@ -37,6 +37,7 @@ class RecordedRun:
     pair_x: np.ndarray
     pair_y: np.ndarray
     pair_mask: np.ndarray    # (m, n_out) 1 where taught
+    pair_sources: np.ndarray  # (m,) who taught each pair (its `source`: teacher/<name>)
     live: dict[str, LiveAnswers] = field(default_factory=dict)
     rejected: int = 0        # recorded samples that did not decode (none from this recorder)
     truncated: list = field(default_factory=list)
@@ -96,6 +97,7 @@ def load_run(run: str | Path, instance: str = "main") -> RecordedRun:
         np.array([p.tick for _, p in ordered], dtype=np.int64), np.array([at for at, _ in ordered], dtype=np.int64),
         _rows([p.x for _, p in ordered], spaces.input.dims), _rows([p.y for _, p in ordered], n_out),
         _rows([np.ones(n_out) if p.mask is None else p.mask for _, p in ordered], n_out),
+        np.array([p.source for _, p in ordered], dtype=str),
         {name: _answers(msgs) for name, msgs in live.items()}, rejected, truncated)
 
 
