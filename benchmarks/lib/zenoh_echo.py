@@ -37,14 +37,15 @@ def echo(router: str, seconds: float, hear: str = PING, say: str = PONG) -> None
         del sub
 
 
-def round_trips(router: str, count: int, size: int = 96, rate_hz: float = 0.0, warm_up: int = WARM_UP) -> np.ndarray:
+def round_trips(router: str, count: int, size: int = 96, rate_hz: float = 0.0, warm_up: int = WARM_UP,
+                say: str = PING, hear: str = PONG) -> np.ndarray:
     """Seconds per round trip (NaN for one whose echo never came within a second): back to back, or
     one every 1/rate_hz seconds (as ticks come: both processes idle, and wake, in between), after
-    `warm_up` more not counted."""
+    `warm_up` more not counted. Said on `say`, its echo heard on `hear`."""
     inbox, out = Inbox(), np.full(count + warm_up, np.nan)
     with zenoh.open(zenoh_config(connect=[router])) as session:
-        pub = sensor_publisher(session, PING)
-        sub = session.declare_subscriber(PONG, inbox.callback("pong"))
+        pub = sensor_publisher(session, say)
+        sub = session.declare_subscriber(hear, inbox.callback("pong"))
         if not wait_matching(pub, 10.0):
             raise TimeoutError("the echo process never subscribed")
         next_at = time.perf_counter()
@@ -63,5 +64,5 @@ def round_trips(router: str, count: int, size: int = 96, rate_hz: float = 0.0, w
     return out[warm_up:]
 
 
-if __name__ == "__main__":
-    echo(sys.argv[1], float(sys.argv[2]))
+if __name__ == "__main__":  # <router> <seconds> [<key heard> <key said>]
+    echo(sys.argv[1], float(sys.argv[2]), *sys.argv[3:5])

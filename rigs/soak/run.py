@@ -16,6 +16,7 @@ from rigs.soak.driver import Driver
 from rigs.soak.rig import Rig
 from rigs.soak.sample import RecordedSoFar
 from rigs.soak.taught import taught_reference
+from services.recording.runs import load_run
 from rigs.soak.watch import LoopWatch
 from rigs.harness import free_port
 
@@ -102,11 +103,16 @@ def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began
     """(taught_reference's error on every recorded pair, and on the program's teachers' alone), logged; None for
     one with the reason logged if it cannot be had: figures beside the others, whose absence must not cost the
     hour's."""
-    out = []
+    try:
+        run = load_run(folder)
+    except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
+        log(f"{name}: no reference: the recording did not load: {type(err).__name__}: {err}")
+        return None, None
+    judge, out = rig.judge(), []
     for what, sources in (("the", None), ("the program's teachers'", {f"teacher/{t}" for t in rig.teachers})):
         try:
-            error, pairs = taught_reference(folder, rig.wired, rig.judge(), watch.taken.judged[1], sources)
-        except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
+            error, pairs = taught_reference(run, rig.wired, judge, watch.taken.judged[1], sources)
+        except Exception as err:  # noqa: BLE001 - as above
             log(f"{name}: no reference on {what} recorded pairs: {type(err).__name__}: {err}")
             out.append(None)
             continue

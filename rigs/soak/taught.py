@@ -9,20 +9,17 @@ lost pairs), apart from what it was taught; and the same learner trained only on
 (the person's left out), what the person's keys cost it: whether more of the program's teaching ever made it worse."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from services.recording.runs import load_run
+from services.recording.runs import RecordedRun
 from services.arbitration.algorithm2 import learn_pair
 from services.replay.replay import learn_all, learner_from_spec
 
 
-def taught_reference(folder: Path, spec: str, judge, inputs: list, sources: set[str] | None = None
+def taught_reference(run: RecordedRun, spec: str, judge, inputs: list, sources: set[str] | None = None
                      ) -> tuple[float | None, int]:
-    """(the mean error over `inputs` of `spec` trained on the recording's pairs, how many pairs); None when
+    """(the mean error over `inputs` of `spec` trained on the recorded run's pairs, how many pairs); None when
     there is nothing to judge. With `sources`, only the pairs those taught (teacher/<name>), in the same order."""
-    run = load_run(folder)
     model = learner_from_spec(spec, run.spaces.input.dims, run.spaces.output.dims, 0)
     if sources is None:
         learn_all(model, run, len(run.pair_x))
