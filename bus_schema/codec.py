@@ -44,7 +44,7 @@ def unpack_vector(raw: Any, key: str, field: str, dims: int | None = None, rows:
         v = v.reshape(-1, dims)
     elif dims is not None and v.size != dims:
         raise SchemaError(key, field, f"expected {dims} values, got {v.size}")
-    if not np.all(np.isfinite(v)):
+    if not np.isfinite(v).all():
         bad = int(np.flatnonzero(~np.isfinite(v.ravel()))[0])
         raise SchemaError(key, field, f"value {bad} is {v.ravel()[bad]} (NaN and inf are rejected)")
     return v
