@@ -16,9 +16,9 @@ from rigs.soak.driver import Driver
 from rigs.soak.rig import Rig
 from rigs.soak.sample import RecordedSoFar
 from rigs.soak.taught import taught_reference
-from services.recording.runs import load_run
 from rigs.soak.watch import LoopWatch
 from rigs.harness import free_port
+from services.recording.runs import load_run
 
 # the learners swapped through before the wired one comes back, in order; --quick gets to the first two of
 # each profile, so between them every registered learner serves (gp and per-output are the two wired)

@@ -12,8 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from services.recording.runs import RecordedRun
-from services.arbitration.algorithm2 import learn_pair
-from services.replay.replay import learn_all, learner_from_spec
+from services.replay.replay import learn_pairs, learner_from_spec
 
 
 def taught_reference(run: RecordedRun, spec: str, judge, inputs: list, sources: set[str] | None = None
@@ -21,14 +20,8 @@ def taught_reference(run: RecordedRun, spec: str, judge, inputs: list, sources: 
     """(the mean error over `inputs` of `spec` trained on the recorded run's pairs, how many pairs); None when
     there is nothing to judge. With `sources`, only the pairs those taught (teacher/<name>), in the same order."""
     model = learner_from_spec(spec, run.spaces.input.dims, run.spaces.output.dims, 0)
-    if sources is None:
-        learn_all(model, run, len(run.pair_x))
-        taught = len(run.pair_x)
-    else:
-        chosen = np.flatnonzero(np.isin(run.pair_sources, sorted(sources)))
-        for i in chosen:
-            learn_pair(model, run.pair_x[i], run.pair_y[i], run.pair_mask[i])
-        taught = len(chosen)
+    rows = slice(None) if sources is None else np.flatnonzero(np.isin(run.pair_sources, sorted(sources)))
+    taught = learn_pairs(model, run, rows)
     errors = [judge(x, run.spaces.output.clip(model.predict_one(x).y)) for x in inputs]
     errors = [e for e in errors if e is not None]
     return (float(np.mean(errors)) if errors else None), taught

@@ -163,7 +163,7 @@ class Arbitrator:
 
     def handle(self, batch) -> None:
         """One batch: each event handled, then any tick now complete or past its deadline decided."""
-        handlers, events = self.handlers, 0
+        handlers, now = self.handlers, None
         for tag, key, raw, kind in batch:
             now = time.monotonic()
             if tag == "alive":
@@ -173,8 +173,7 @@ class Arbitrator:
             else:
                 handlers[tag](key, raw, now)
             self.decide_ready(now)
-            events += 1
-        if not events:  # the wait ended at a deadline
+        if now is None:  # nothing heard: the wait ended at a deadline
             self.decide_ready(time.monotonic())
         if self.commanding is None and self.command_pub.matching_status.matching:  # off the tick's path
             self.commanding = self.box.token(self.keys.commanding(self.box.name))

@@ -70,7 +70,7 @@ def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None =
         if quasi_batch:
             if span_ended(run, i) and plan[i] > fitted_upto:
                 model, fitted_upto = learner_from_spec(spec, n_in, n_out, seed), int(plan[i])
-                learn_all(model, run, fitted_upto)
+                learn_pairs(model, run, slice(0, fitted_upto))
         else:
             while learned < plan[i]:
                 learn_pair(model, run.pair_x[learned], run.pair_y[learned], run.pair_mask[learned])
@@ -91,10 +91,13 @@ def span_ended(run: RecordedRun, i: int) -> bool:
     return i > 0 and run.modes[i - 1] == "teacher" and run.modes[i] != "teacher"
 
 
-def learn_all(model, run: RecordedRun, n: int) -> None:
-    """The first n pairs in one batch (per pair where some are partial)."""
-    if n and np.all(run.pair_mask[:n] == 1):
-        model.learn_many(run.pair_x[:n], run.pair_y[:n])
-        return
-    for x, y, mask in zip(run.pair_x[:n], run.pair_y[:n], run.pair_mask[:n]):
+def learn_pairs(model, run: RecordedRun, rows) -> int:
+    """The pairs `rows` picks (a slice or row numbers, in order) in one batch (per pair where some are partial);
+    returns how many."""
+    xs, ys, masks = run.pair_x[rows], run.pair_y[rows], run.pair_mask[rows]
+    if len(xs) and np.all(masks == 1):
+        model.learn_many(xs, ys)
+        return len(xs)
+    for x, y, mask in zip(xs, ys, masks):
         learn_pair(model, x, y, mask)
+    return len(xs)
