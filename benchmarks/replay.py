@@ -10,7 +10,9 @@ Each recording is replayed with three learners, answering each input on the live
 and measured against the teacher program run on every input (the paper's Figure 5 measure). The
 replay speed-up is the recorded duration over the time a replay with LWPR takes (relearning every
 pair, answering every input; its kernels compiled before the clock starts, as the live learner's
-are), and the same with the learner the profile wires (replay_speedup_wired: issue 34 asks 50x).
+are), and the same with the learner the profile wires (replay_speedup_wired: issue 34 asks 50x), side by side
+in processes as `dogged replay` does where it is per-output (and in this process, the baseline:
+replay_speedup_wired_one_process_mirroring).
 Last line: one JSON object (replay_speedup, replay_speedup_wired, recorder_mb_per_min,
 lost_after_sigkill_s, final_error_<run>_<learner>, ...).
 """
@@ -41,6 +43,7 @@ from services.recording.runs import load_run  # noqa: E402
 from services.replay.cli import compare  # noqa: E402
 from services.replay.compare import table  # noqa: E402
 from services.replay.replay import learner_from_spec, replay, schedule  # noqa: E402
+from services.replay.side_by_side import ReplayWorkers, output_bins, replay_side_by_side  # noqa: E402
 from services.teachers import make_teacher  # noqa: E402
 from services.waiting import poll  # noqa: E402
 
@@ -96,10 +99,20 @@ def replay_figures(name: str, folder: Path) -> dict:
     lwpr = replay(run, "lwpr", 0, plan)
     took = time.perf_counter() - start
     wired = wired_spec(name)  # the learner the profile wires (issue 34: 50x the recorded time)
-    compile_kernels(learner_from_spec(wired, run.spaces.input.dims, run.spaces.output.dims, 0))
+    n_in, n_out = run.spaces.input.dims, run.spaces.output.dims
+    compile_kernels(learner_from_spec(wired, n_in, n_out, 0))
     start = time.perf_counter()
-    replay(run, wired, 0, plan)
-    wired_took = time.perf_counter() - start
+    one = replay(run, wired, 0, plan)  # in this process: the baseline
+    one_took = time.perf_counter() - start
+    bins = output_bins(run, wired)  # as `dogged replay` does: a per-output learner side by side
+    wired_took, side_by_side = one_took, None
+    if bins:
+        with ReplayWorkers(len(bins), wired, n_in, n_out) as workers:  # ready (kernels compiled) before the clock
+            start = time.perf_counter()
+            side_by_side = replay_side_by_side(run, wired, 0, plan, workers, bins)
+            wired_took = time.perf_counter() - start
+        if not (np.array_equal(side_by_side.y, one.y) and np.array_equal(side_by_side.confidence, one.confidence)):
+            raise AssertionError(f"{name}: side by side, the wired learner answered otherwise than in one process")
     inputs, answers = run.answered(live)
     reproduced = float(np.max(np.abs(lwpr.y[inputs] - run.live[live].y[answers]))) if name == "mirroring" else None
     teacher = make_teacher(TEACHERS[name], run.spaces)
@@ -108,7 +121,8 @@ def replay_figures(name: str, folder: Path) -> dict:
           f"reference: teacher {TEACHERS[name]} on every input")
     print(table(rows, 0.1))
     out = {"speedup": run.duration_s / took, "duration_s": run.duration_s, "replay_s": took, "wired": wired,
-           "wired_s": wired_took, "wired_speedup": run.duration_s / wired_took,
+           "wired_s": wired_took, "wired_speedup": run.duration_s / wired_took, "wired_processes": len(bins) or 1,
+           "wired_one_s": one_took, "wired_one_speedup": run.duration_s / one_took,
            "final": {r.spec: r.final_error for r in rows}, "student": {r.spec: r.student_error for r in rows}}
     if reproduced is not None:
         out["reproduced_max_abs"] = reproduced
@@ -126,12 +140,16 @@ def main(quick: bool, out: str | None = None) -> dict:
         replays = {name: replay_figures(name, folder) for name, folder in (("mirroring", mirroring),
                                                                             ("ballseek", ballseek))}
     print(f"\n{'recording':<12}{'minutes':>9}{'messages':>10}{'files':>7}{'MB':>8}{'MB/min':>8}"
-          f"{'replay s':>10}{'speed-up (LWPR)':>17}{'wired learner':>24}{'replay s':>10}{'speed-up':>10}")
+          f"{'replay s':>10}{'speed-up (LWPR)':>17}{'wired learner':>24}{'processes':>11}{'replay s':>10}"
+          f"{'speed-up':>10}{'in one: s':>11}{'speed-up':>10}")
     for name, s in sizes.items():
         r = replays[name]
         print(f"{name:<12}{s['minutes']:>9.2f}{s['messages']:>10}{s['files']:>7}{s['mb']:>8.1f}{s['mb_per_min']:>8.2f}"
-              f"{r['replay_s']:>10.2f}{r['speedup']:>16.0f}x{r['wired']:>24}{r['wired_s']:>10.2f}"
-              f"{r['wired_speedup']:>9.0f}x")
+              f"{r['replay_s']:>10.2f}{r['speedup']:>16.0f}x{r['wired']:>24}{r['wired_processes']:>11}"
+              f"{r['wired_s']:>10.2f}{r['wired_speedup']:>9.1f}x{r['wired_one_s']:>11.2f}{r['wired_one_speedup']:>9.1f}x")
+    print("wired learner: side by side, each output taught more than one value in a process of its own and the outputs "
+          "held still in one more (started before the clock), answering to the last bit as in one process (checked); "
+          "in one: the same replay in this process")
     print(f"SIGKILL of the recorder: its file lost the last {lost_s:.2f} s before the kill; replayed LWPR "
           f"matches the live one to {replays['mirroring']['reproduced_max_abs']:.1e} on every answer")
     figures = {"replay_speedup": round(min(r["speedup"] for r in replays.values()), 1),
@@ -140,6 +158,8 @@ def main(quick: bool, out: str | None = None) -> dict:
                "replay_speedup_wired": round(min(r["wired_speedup"] for r in replays.values()), 1),
                "replay_speedup_wired_mirroring": round(replays["mirroring"]["wired_speedup"], 1),
                "replay_speedup_wired_ballseek": round(replays["ballseek"]["wired_speedup"], 1),
+               "replay_speedup_wired_one_process_mirroring": round(replays["mirroring"]["wired_one_speedup"], 1),
+               "replay_processes_wired_mirroring": replays["mirroring"]["wired_processes"],
                "recorder_mb_per_min": round(sizes["ballseek"]["mb_per_min"], 2),
                "recorder_mb_per_min_mirroring": round(sizes["mirroring"]["mb_per_min"], 2),
                "lost_after_sigkill_s": round(lost_s, 3),

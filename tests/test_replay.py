@@ -7,11 +7,10 @@ import sys
 import numpy as np
 import pytest
 
-from bus_schema import Command, Input, Proposal, TrainingPair, encode
 from rigs.harness import REPO
+from rigs.recorded import write_point_run
 from services.platforms.point import PointPlatform
 from services.recording.runs import load_run
-from services.recording.writer import RunWriter
 from services.replay.replay import replay, schedule
 from services.teachers import make_teacher
 
@@ -21,28 +20,10 @@ TICKS, TAUGHT = 600, 300  # 20 s at 30 Hz, the first half taught
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """A point platform taught by the sine teacher for 10 s, then the student alone (a dumb one: zeros)."""
-    folder = tmp_path_factory.mktemp("run")
     point = PointPlatform(dims=2, seed=3)
     teacher = make_teacher("sine", point.spaces)
-    writer = RunWriter(folder, "recorder", 10**9, 3600.0)
-    writer.add_metadata("spaces dl/main", {"spaces": json.dumps(point.spaces.to_dict())})
-    seq = 0
-    for tick in range(1, TICKS + 1):
-        x, stamp, ns = point.observe(), 1000 + tick / 30, tick * 10**7
-        writer.write("dl/main/input", Input, encode(Input(tick, stamp, x)), ns, ns)
-        writer.write("dl/main/proposal/learner/l", Proposal,
-                     encode(Proposal(tick, "learner/l", np.zeros(2), 0.1, learned=seq)), ns + 1, ns + 1)
-        taught = tick <= TAUGHT
-        y = teacher(x)[0] if taught else np.zeros(2)
-        writer.write("dl/main/command", Command, encode(Command(tick, stamp, y, "teacher" if taught else "student",
-                                                                "t", 1.0)), ns + 2, ns + 2)
-        if taught:
-            seq += 1
-            writer.write("dl/main/train", TrainingPair, encode(TrainingPair("e", seq, tick, x, y, "teacher/t")),
-                         ns + 3, ns + 3)
-        point.step(y, 1 / 30)
-    writer.close()
-    return folder
+    return write_point_run(tmp_path_factory.mktemp("run"), point, TICKS,
+                           lambda tick, x: (teacher(x)[0], None) if tick <= TAUGHT else None)
 
 
 def test_the_schedule_follows_the_live_learner(run):

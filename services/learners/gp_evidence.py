@@ -49,7 +49,11 @@ def kernel_shapes(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The unit squared exponential and the linear part z z' on centred, relevance-scaled inputs."""
     sq = (z * z).sum(1)
     gram = z @ z.T
-    return np.exp(-0.5 * np.maximum(sq[:, None] + sq[None, :] - 2.0 * gram, 0.0)), gram
+    smooth = sq[:, None] + sq[None, :]  # then in place, each step as exp(-0.5 max(sq + sq' - 2 gram, 0)) takes it
+    smooth -= 2.0 * gram
+    np.maximum(smooth, 0.0, out=smooth)
+    smooth *= -0.5
+    return np.exp(smooth, out=smooth), gram
 
 
 def linear_share(logit: float) -> float:
@@ -67,17 +71,19 @@ def negative_log_posterior(theta: np.ndarray, xs: np.ndarray, ys: np.ndarray, pr
     smooth, linear = kernel_shapes(z)
     smooth *= sf2 * (1.0 - rho)
     linear *= sf2 * rho
-    gram = smooth + linear + sn2 * np.eye(len(xs))
+    gram = smooth + linear
+    gram[np.diag_indices_from(gram)] += sn2  # as + sn2 I, to the bit: every other entry is added a 0.0
     try:
         chol = np.linalg.cholesky(gram)
     except np.linalg.LinAlgError:
         return 1e12, np.zeros_like(theta)
-    inverse_chol = solve_triangular(chol, np.eye(len(xs)), lower=True)
+    inverse_chol = solve_triangular(chol, np.eye(len(xs)), lower=True, check_finite=False)  # chol is finite
     inverse = inverse_chol.T @ inverse_chol
     alpha = inverse @ ys
     k = ys.shape[1]
     value = 0.5 * float((ys * alpha).sum()) + k * float(np.log(np.diag(chol)).sum())
-    w = alpha @ alpha.T - k * inverse  # d value / d gram = -w / 2
+    w = alpha @ alpha.T  # d value / d gram = -w / 2, w = alpha alpha' - k inverse
+    w -= k * inverse
     m = w * smooth
     grad = np.zeros_like(theta)
     # d smooth / d log ell_i = smooth * (z_ai - z_bi)^2 and d linear / d log ell_i = -2 linear * z_ai z_bi,

@@ -109,23 +109,33 @@ class PerOutput(Learner):
         self._n_learned += xs.shape[0]
 
     def predict_one(self, x) -> Prediction:
+        y, confidence = self.answers(x)
+        taught = confidence[~np.isnan(confidence)]
+        return Prediction(y, float(taught.min()) if len(taught) else 0.0)
+
+    def answers(self, x, outputs=None) -> tuple[np.ndarray, np.ndarray]:
+        """Each output's answer and the confidence of the learner answering it (NaN: that learner has learned
+        nothing); only `outputs` asked where given (the rest 0.0 and NaN). The least of these is predict_one's
+        confidence: replay.parallel gathers them from processes that each learned some outputs."""
         x = as_vector(x, self.n_in, "inputs")
-        y, taught = np.zeros(self.n_out), []  # an output never taught answers 0 (the contract), unasked
+        y, confidence = np.zeros(self.n_out), np.full(self.n_out, np.nan)  # an output never taught answers 0
         if self._n_learned == 0:
-            return Prediction(y, 0.0)
+            return y, confidence
+        asked = np.ones(self.n_out, dtype=bool)
+        if outputs is not None:
+            asked[:] = False
+            asked[outputs] = True
         for i, part in enumerate(self._parts):
-            if part is not None and part.n_learned > 0:
+            if part is not None and asked[i] and part.n_learned > 0:
                 a = part.predict_one(x)  # each part's own fast path
-                y[i] = a.y[0]
-                taught.append(a.confidence)
+                y[i], confidence[i] = a.y[0], a.confidence
         for group in self._held:
-            model = group["model"]
-            if model.n_learned > 0:
+            model, members = group["model"], np.asarray(group["outputs"])
+            if model.n_learned > 0 and asked[members].any():
                 a = model.predict_one(x)
                 # the shared learner answers 0.0, which each output reads as its own value
-                y[group["outputs"]] = group["values"] + a.y[0]
-                taught.append(a.confidence)
-        return Prediction(y, min(taught) if taught else 0.0)
+                y[members], confidence[members] = group["values"] + a.y[0], a.confidence
+        return y, confidence
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         y, taught = np.empty((len(xs), self.n_out)), []
@@ -171,8 +181,12 @@ class PerOutput(Learner):
     @property
     def size(self) -> int:
         """Samples remembered, over every output (each output of a shared learner counted)."""
-        held = sum(group["model"].size * len(group["outputs"]) for group in self._held)
-        return int(held + sum(part.size for part in self._parts if part is not None))
+        return self.size_of(range(self.n_out))
+
+    def size_of(self, outputs) -> int:
+        """Samples remembered by the learners answering `outputs`, a shared learner counted once per output."""
+        shared = {o: group["model"].size for group in self._held for o in group["outputs"]}
+        return int(sum(shared[o] if self._parts[o] is None else self._parts[o].size for o in outputs))
 
     def part(self, output: int) -> Learner:
         """The learner of one output (a copy holding its value, where it shares one with other outputs)."""

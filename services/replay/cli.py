@@ -13,7 +13,8 @@ import numpy as np
 from services.params import parse_params
 from services.recording.runs import RecordedRun, load_run
 from services.replay.compare import Figures, figures, plot, reference, table
-from services.replay.replay import Replayed, learner_from_spec, replay, schedule
+from services.replay.replay import Replayed, learner_from_spec, schedule
+from services.replay.side_by_side import replay_any
 
 
 def live_rows(run: RecordedRun) -> list[Replayed]:
@@ -37,7 +38,7 @@ def compare(run: RecordedRun, specs: list[str], seed: int = 0, teacher=None, thr
     rows = [figures(run, r, ref, threshold) for r in live_rows(run)]
     with tqdm(total=len(specs) * len(run.ticks), unit="input", disable=not progress, file=sys.stderr) as bar:
         for spec in specs:
-            result = replay(run, spec, seed, plan, quasi_batch, bar.update)
+            result = replay_any(run, spec, seed, plan, quasi_batch, bar.update)
             rows.append(figures(run, result, ref, threshold))
     return rows
 

@@ -62,19 +62,45 @@ def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None =
     n_in, n_out = run.spaces.input.dims, run.spaces.output.dims
     model = learner_from_spec(spec, n_in, n_out, seed)
     compile_kernels(model)  # as the live learner does before it serves: compiling is not learning
+    if quasi_batch:
+        return replay_quasi_batch(run, spec, seed, plan, model, progress)
+    answers, learn_s, predict_s, learned = learn_and_answer(
+        model, run.x, (run.pair_x, run.pair_y, run.pair_mask), plan, lambda m, x: m.predict_one(x), progress)
+    ys = np.array([run.spaces.output.clip(p.y) for p in answers]).reshape(len(run.ticks), n_out)
+    confidence = np.array([p.confidence for p in answers], dtype=np.float64)
+    return Replayed(spec, ys, confidence, learn_s, predict_s, learned, int(model.size))
+
+
+def learn_and_answer(model, x: np.ndarray, pairs: tuple, plan: np.ndarray, answer, progress=None) -> tuple:
+    """Each input x[i] answered, `answer(model, x[i])`, once the first plan[i] of `pairs` (xs, ys, masks) are
+    learned, in order; returns the answers, the seconds spent learning and answering, and the pairs learned."""
+    pair_x, pair_y, pair_mask = pairs
+    answers, learned, learn_s, predict_s = [], 0, 0.0, 0.0
+    for i, xi in enumerate(x):
+        start = time.perf_counter()
+        while learned < plan[i]:
+            learn_pair(model, pair_x[learned], pair_y[learned], pair_mask[learned])
+            learned += 1
+        middle = time.perf_counter()
+        answers.append(answer(model, xi))
+        predict_s += time.perf_counter() - middle
+        learn_s += middle - start
+        if progress is not None:
+            progress(1)
+    return answers, learn_s, predict_s, learned
+
+
+def replay_quasi_batch(run: RecordedRun, spec: str, seed: int, plan: np.ndarray, model, progress=None) -> Replayed:
+    """Refit from scratch on every pair so far at the end of each teaching span, answering in between with the
+    last fit."""
+    n_in, n_out = run.spaces.input.dims, run.spaces.output.dims
     ys, confidence = np.empty((len(run.ticks), n_out)), np.empty(len(run.ticks))
-    learned, learn_s, predict_s = 0, 0.0, 0.0
-    fitted_upto = 0
+    fitted_upto, learn_s, predict_s = 0, 0.0, 0.0
     for i, x in enumerate(run.x):
         start = time.perf_counter()
-        if quasi_batch:
-            if span_ended(run, i) and plan[i] > fitted_upto:
-                model, fitted_upto = learner_from_spec(spec, n_in, n_out, seed), int(plan[i])
-                learn_pairs(model, run, slice(0, fitted_upto))
-        else:
-            while learned < plan[i]:
-                learn_pair(model, run.pair_x[learned], run.pair_y[learned], run.pair_mask[learned])
-                learned += 1
+        if span_ended(run, i) and plan[i] > fitted_upto:
+            model, fitted_upto = learner_from_spec(spec, n_in, n_out, seed), int(plan[i])
+            learn_pairs(model, run, slice(0, fitted_upto))
         middle = time.perf_counter()
         p = model.predict_one(x)
         ys[i], confidence[i] = run.spaces.output.clip(p.y), p.confidence
@@ -82,8 +108,7 @@ def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None =
         learn_s += middle - start
         if progress is not None:
             progress(1)
-    return Replayed(spec, ys, confidence, learn_s, predict_s, fitted_upto if quasi_batch else learned,
-                    int(model.size))
+    return Replayed(spec, ys, confidence, learn_s, predict_s, fitted_upto, int(model.size))
 
 
 def span_ended(run: RecordedRun, i: int) -> bool:
