@@ -50,6 +50,7 @@ def test_each_output_taught_values_is_a_bin_and_the_held_ones_one_more(run):
     assert output_bins(held, SPEC) == []  # one bin: nothing to share out
 
 
+@pytest.mark.live
 def test_side_by_side_answers_as_one_process_to_the_last_bit(run):
     recorded = load_run(run)
     plan = schedule(recorded, "l")
@@ -67,6 +68,7 @@ def test_side_by_side_answers_as_one_process_to_the_last_bit(run):
     assert np.array_equal(replay_any(recorded, SPEC, 0, plan).y, one.y)
 
 
+@pytest.mark.live
 def test_a_failing_job_is_a_clear_error_and_the_processes_end(run):
     recorded = load_run(run)
     plan = schedule(recorded, "l")
@@ -97,6 +99,7 @@ def test_per_output_answers_are_what_predict_one_gathers():
     assert np.isnan(make_learner("per-output", 2, 3, base="gp").answers(query)[1]).all()
 
 
+@pytest.mark.live
 def test_dogged_replay_runs_a_per_output_learner_side_by_side(run):
     done = subprocess.run([sys.executable, "-m", "services.cli", "replay", str(run), "--learner", SPEC,
                            "--learner", "knn"], cwd=REPO, capture_output=True, text=True, timeout=300)

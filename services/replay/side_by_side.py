@@ -9,6 +9,8 @@ its outputs', as `PerOutput.predict_one` takes it.
 Each output taught more than one value gets a process, the outputs held still one more: more processes than
 cores where there are few, and the system shares the cores out (mirroring's held learner costs an eighth of a
 taught output's, and finishes early). Processes are spawned, never forked: the caller may hold a Zenoh session.
+Jobs and results travel as pickles between this process and its own children only, never over the bus: the
+recording was decoded and checked by its reader before any job is made.
 """
 from __future__ import annotations
 
