@@ -10,7 +10,6 @@ MALLOC_TRIM_THRESHOLD_) win where set.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
 
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's malloc.h
@@ -22,9 +21,15 @@ def fix_thresholds() -> bool:
     """Set both thresholds in this process unless the environment sets either; True if set."""
     if "MALLOC_MMAP_THRESHOLD_" in os.environ or "MALLOC_TRIM_THRESHOLD_" in os.environ:
         return False
-    name = ctypes.util.find_library("c")
-    if not name or not hasattr(ctypes.CDLL(name), "mallopt"):
+    libc = ctypes.CDLL(None)  # this process's own symbols, libc's among them (find_library would run ldconfig)
+    if not hasattr(libc, "mallopt") or not glibc():
         return False
-    libc = ctypes.CDLL(name)
     return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(libc.mallopt(M_TRIM_THRESHOLD,
                                                                                           TRIM_THRESHOLD))
+
+
+def glibc() -> bool:
+    try:
+        return os.confstr("CS_GNU_LIBC_VERSION") is not None
+    except (ValueError, OSError, AttributeError):  # no such name here: not glibc
+        return False
