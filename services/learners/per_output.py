@@ -109,33 +109,39 @@ class PerOutput(Learner):
         self._n_learned += xs.shape[0]
 
     def predict_one(self, x) -> Prediction:
-        y, confidence = self.answers(x)
-        taught = confidence[~np.isnan(confidence)]
-        return Prediction(y, float(taught.min()) if len(taught) else 0.0)
+        y, _, taught = self._answer(as_vector(x, self.n_in, "inputs"), None)
+        return Prediction(y, min(taught) if taught else 0.0)
 
     def answers(self, x, outputs=None) -> tuple[np.ndarray, np.ndarray]:
         """Each output's answer and the confidence of the learner answering it (NaN: that learner has learned
         nothing); only `outputs` asked where given (the rest 0.0 and NaN). The least of these is predict_one's
-        confidence: replay.parallel gathers them from processes that each learned some outputs."""
-        x = as_vector(x, self.n_in, "inputs")
-        y, confidence = np.zeros(self.n_out), np.full(self.n_out, np.nan)  # an output never taught answers 0
-        if self._n_learned == 0:
-            return y, confidence
-        asked = np.ones(self.n_out, dtype=bool)
+        confidence: replay.side_by_side gathers them from processes that each learned some outputs."""
+        asked = None
         if outputs is not None:
-            asked[:] = False
+            asked = np.zeros(self.n_out, dtype=bool)
             asked[outputs] = True
+        y, confidence, _ = self._answer(as_vector(x, self.n_in, "inputs"), asked)
+        return y, confidence
+
+    def _answer(self, x: np.ndarray, asked: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, list[float]]:
+        """The outputs' answers (`asked`: a mask of those wanted, None for all), each output's learner's
+        confidence (NaN where not asked or it learned nothing), and those confidences, one per learner."""
+        y, confidence, taught = np.zeros(self.n_out), np.full(self.n_out, np.nan), []  # never taught: 0, unasked
+        if self._n_learned == 0:
+            return y, confidence, taught
         for i, part in enumerate(self._parts):
-            if part is not None and asked[i] and part.n_learned > 0:
+            if part is not None and (asked is None or asked[i]) and part.n_learned > 0:
                 a = part.predict_one(x)  # each part's own fast path
                 y[i], confidence[i] = a.y[0], a.confidence
+                taught.append(a.confidence)
         for group in self._held:
-            model, members = group["model"], np.asarray(group["outputs"])
-            if model.n_learned > 0 and asked[members].any():
+            model, members = group["model"], group["outputs"]
+            if model.n_learned > 0 and (asked is None or asked[members].any()):
                 a = model.predict_one(x)
                 # the shared learner answers 0.0, which each output reads as its own value
                 y[members], confidence[members] = group["values"] + a.y[0], a.confidence
-        return y, confidence
+                taught.append(a.confidence)
+        return y, confidence, taught
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         y, taught = np.empty((len(xs), self.n_out)), []
