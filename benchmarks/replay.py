@@ -105,7 +105,7 @@ def replay_figures(name: str, folder: Path) -> dict:
     one = replay(run, wired, 0, plan)  # in this process: the baseline
     one_took = time.perf_counter() - start
     bins = output_bins(run, wired)  # as `dogged replay` does: a per-output learner side by side
-    wired_took, side_by_side = one_took, None
+    wired_took = one_took
     if bins:
         with ReplayWorkers(len(bins), wired, n_in, n_out) as workers:  # ready (kernels compiled) before the clock
             start = time.perf_counter()

@@ -72,7 +72,7 @@ def negative_log_posterior(theta: np.ndarray, xs: np.ndarray, ys: np.ndarray, pr
     smooth *= sf2 * (1.0 - rho)
     linear *= sf2 * rho
     gram = smooth + linear
-    gram[np.diag_indices_from(gram)] += sn2  # as + sn2 I, to the bit: every other entry is added a 0.0
+    gram.flat[::len(xs) + 1] += sn2  # the diagonal: as + sn2 I, to the bit (every other entry is added a 0.0)
     try:
         chol = np.linalg.cholesky(gram)
     except np.linalg.LinAlgError:

@@ -66,7 +66,7 @@ def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None =
         return replay_quasi_batch(run, spec, seed, plan, model, progress)
     answers, learn_s, predict_s, learned = learn_and_answer(
         model, run.x, (run.pair_x, run.pair_y, run.pair_mask), plan, lambda m, x: m.predict_one(x), progress)
-    ys = np.array([run.spaces.output.clip(p.y) for p in answers]).reshape(len(run.ticks), n_out)
+    ys = run.spaces.output.clip(np.array([p.y for p in answers]).reshape(len(run.ticks), n_out))
     confidence = np.array([p.confidence for p in answers], dtype=np.float64)
     return Replayed(spec, ys, confidence, learn_s, predict_s, learned, int(model.size))
 

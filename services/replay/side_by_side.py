@@ -17,6 +17,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -131,9 +132,19 @@ def _serve(pipe, spec: str, n_in: int, n_out: int) -> None:
         pipe.send(("error", f"{type(err).__name__}: {err}"))
 
 
-def replay_outputs(job: Job, spec: str, n_in: int, n_out: int) -> tuple:
-    """The learner taught only the job's outputs: their answers (n, k) and confidences (n, k; NaN where the
-    learner answering that output had learned nothing), what those learners remember, and the timings."""
+class OutputsReplayed(NamedTuple):
+    """One process's share: its outputs' answers (n, k), the confidence of each one's learner (n, k; NaN where it
+    had learned nothing), what those learners remember, the seconds learning and answering, and pairs learned."""
+    y: np.ndarray
+    confidence: np.ndarray
+    size: int
+    learn_s: float
+    predict_s: float
+    updates: int
+
+
+def replay_outputs(job: Job, spec: str, n_in: int, n_out: int) -> OutputsReplayed:
+    """The learner taught only the job's outputs (the others masked out of every pair), answering those."""
     model = learner_from_spec(spec, n_in, n_out, job.seed)
     keep = np.zeros(n_out)
     keep[job.outputs] = 1.0
@@ -142,7 +153,7 @@ def replay_outputs(job: Job, spec: str, n_in: int, n_out: int) -> tuple:
         lambda m, x: m.answers(x, job.outputs))
     y = np.array([a[0][job.outputs] for a in answers]).reshape(len(job.x), len(job.outputs))
     confidence = np.array([a[1][job.outputs] for a in answers]).reshape(y.shape)
-    return y, confidence, model.size_of(job.outputs), learn_s, predict_s, learned
+    return OutputsReplayed(y, confidence, model.size_of(job.outputs), learn_s, predict_s, learned)
 
 
 def replay_side_by_side(run: RecordedRun, spec: str, seed: int, plan: np.ndarray, workers: ReplayWorkers,
@@ -150,16 +161,15 @@ def replay_side_by_side(run: RecordedRun, spec: str, seed: int, plan: np.ndarray
     """As replay.replay(run, spec, seed, plan), each bin of outputs in one of `workers`. Its learn_s and
     predict_s are the slowest process's."""
     jobs = [Job(seed, outputs, run.x, run.pair_x, run.pair_y, run.pair_mask, plan) for outputs in bins]
-    results = workers.run(jobs)
+    parts: list[OutputsReplayed] = workers.run(jobs)
     n_out = run.spaces.output.dims
     y, confidence = np.zeros((len(run.ticks), n_out)), np.full((len(run.ticks), n_out), np.nan)
-    for outputs, (ys, confidences, *_) in zip(bins, results):
-        y[:, outputs], confidence[:, outputs] = ys, confidences
+    for outputs, part in zip(bins, parts):
+        y[:, outputs], confidence[:, outputs] = part.y, part.confidence
     answered = ~np.isnan(confidence)
     least = np.where(answered.any(1), np.min(np.where(answered, confidence, np.inf), axis=1), 0.0)
-    clipped = np.array([run.spaces.output.clip(row) for row in y]).reshape(y.shape)
-    return Replayed(spec, clipped, least, max(r[3] for r in results), max(r[4] for r in results),
-                    int(results[0][5]), int(sum(r[2] for r in results)))
+    return Replayed(spec, run.spaces.output.clip(y), least, max(p.learn_s for p in parts),
+                    max(p.predict_s for p in parts), parts[0].updates, sum(p.size for p in parts))
 
 
 def replay_any(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None = None,
