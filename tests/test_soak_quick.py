@@ -40,7 +40,8 @@ def test_no_pair_is_lost(soak, profile):
 
 
 def test_every_recording_opens_and_replays_even_those_a_full_disk_cut(profile):
-    assert profile["recordings"] >= 2 and profile["recordings_all_open"], profile
+    assert profile["recordings"] >= 2 and profile["recordings_all_open"], \
+        (profile["recordings_not_open"], profile["run_replay_said"])
     assert profile["disk_fills"] == 0 or profile["recording_again_after_fill"]
 
 
