@@ -38,7 +38,7 @@ def test_a_gram_that_is_not_positive_definite_is_refused():
 
 
 @pytest.mark.parametrize("k", [1, 3])
-def test_the_gradient_is_the_values(k):
+def test_the_gradient_is_the_values_derivative(k):
     rng = np.random.default_rng(k)
     xs, ys = rng.standard_normal((40, 4)), rng.standard_normal((40, k))
     theta = np.r_[rng.uniform(-0.5, 1.0, 4), 0.1, -1.0, 0.3]

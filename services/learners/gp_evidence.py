@@ -134,7 +134,7 @@ def loo_residuals(xs: np.ndarray, ys: np.ndarray, found: Evidence, log_sn_floor:
     sn2 = math.exp(2.0 * max(found.log_sn, log_sn_floor))
     gram = sf2 * ((1.0 - rho) * smooth + rho * linear) + sn2 * np.eye(len(xs))
     factored = factor_and_invert(gram.T)
-    if factored is None or not np.isfinite(factored[1]).all():
+    if factored is None or not np.isfinite(factored[1]).all():  # (non-finite: scipy's check raised here before)
         return np.full(ys.shape, np.inf)
     inverse = factored[1]
     return (inverse @ ys) / np.diag(inverse)[:, None]

@@ -110,7 +110,7 @@ class PerOutput(Learner):
 
     def predict_one(self, x) -> Prediction:
         y, _, taught = self._answer(as_vector(x, self.n_in, "inputs"), None)
-        return Prediction(y, min(taught) if taught else 0.0)
+        return Prediction(y, float(min(taught)) if taught else 0.0)
 
     def answers(self, x, outputs=None) -> tuple[np.ndarray, np.ndarray]:
         """Each output's answer and the confidence of the learner answering it (NaN: that learner has learned
