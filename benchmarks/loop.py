@@ -17,9 +17,11 @@ what the loop's shape costs beyond the floor, and what the services' own work an
 Then what users run (issue 34): each profile of deploy/ as it is, with its wired learner, while a teacher
 teaches and while the student drives (`<profile>_tick_*`, beside `<profile>_tick_floor_ms`, the Zenoh round
 trip at its rate times half its hops; benchmarks/lib/profile_ticks.py), the deploy profiles secured by this
-user's own identities as they run by default, and mirroring again with security = "off" (`mirroring_off_*`;
-`security_tick_p50_ratio[_teaching]`: secured over unsecured, same run), and each learner's cost per call at
-the profiles' shapes (`learner_*`, benchmarks/lib/learner_costs.py). Prints tables; the last line is one JSON
+user's own identities and with the tick path on CPUs of its own, as they run by default (the platform's own view
+too: `<profile>_platform_p50_ms`, `_p99_ms`), and mirroring again with security = "off" (`mirroring_off_*`;
+`security_tick_p50_ratio[_teaching]`: secured over unsecured, same run) and with tick_cpus = "off"
+(`mirroring_unplaced_*`; `placement_<figure>_ratio[_teaching]`: placed over unplaced, same run), and each
+learner's cost per call at the profiles' shapes (`learner_*`, benchmarks/lib/learner_costs.py). Prints tables; the last line is one JSON
 object of the figures.
 """
 from __future__ import annotations

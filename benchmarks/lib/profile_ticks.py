@@ -33,9 +33,11 @@ LESSONS = {"mirroring": (("main", "mirror"),), "ballseek": (("main", ""),),
 ARENA = (3, {"pink": [0.9, 0.3], "orange": None})  # docs/teaching.md's `dogged arena --seed 3 --ball pink=0.9,0.3 ...`
 SETTLE_S = 1.0  # after a switch, before the phase counts: the teaching token reaches the arbitrator
 PHASES = ("teaching", "student")
-# each profile as deployed (secured by this user's own identities), and mirroring again right after with
-# security = "off": the tick's cost of security, measured in the same run
-RUNS = (("mirroring", ""), ("mirroring", "off"), *((name, "") for name in PROFILES[1:]))
+# each profile as deployed (secured by this user's own identities, the tick path on CPUs of its own), and
+# mirroring again right after with security = "off" and with tick_cpus = "off": what security and the placement
+# each change in the tick, measured in the same run. (label, profile, [zenoh] security, [profile] tick_cpus)
+RUNS = (("mirroring", "mirroring", "", ""), ("mirroring_off", "mirroring", "off", ""),
+        ("mirroring_unplaced", "mirroring", "", "off"), *((name, name, "", "") for name in PROFILES[1:]))
 
 
 @dataclass(frozen=True)
@@ -64,18 +66,22 @@ def member(profile: Profile, box: str, instance: str) -> str:
     return f"{spec.role}/{spec.name}"
 
 
-def watch(name: str, work: Path, seconds: dict[str, float], security: str = "") -> tuple[Profile, dict[str, Phase]]:
+def watch(name: str, work: Path, seconds: dict[str, float], security: str = "",
+          tick_cpus: str = "") -> tuple[Profile, dict[str, Phase]]:
     """Bring the profile up, teach for seconds['teaching'], let the student drive for seconds['student'];
-    `security`: its zenoh.security instead of the profile's (the deploy profiles name none: this user's own)."""
-    run_dir = work / (f"{name}-{security}" if security else name)
+    `security`: its zenoh.security instead of the profile's (the deploy profiles name none: this user's own);
+    `tick_cpus`: its profile.tick_cpus instead ("auto" when the profile names none)."""
+    variant = (security and f"security-{security}", tick_cpus and f"cpus-{tick_cpus}")
+    run_dir = work / "-".join(filter(None, (name, *variant)))
     run_dir.mkdir(parents=True)
     path = run_dir / f"{name}.toml"
     shutil.copy(profile_path(name), path)
-    if security:
-        text = path.read_text()
-        if "\n[zenoh]\n" not in text or "security" in text:
-            raise ValueError(f"deploy/{name}.toml: expected a [zenoh] table without security, to set it")
-        path.write_text(text.replace("\n[zenoh]\n", f'\n[zenoh]\nsecurity = "{security}"\n', 1))
+    for table, field, value in (("zenoh", "security", security), ("profile", "tick_cpus", tick_cpus)):
+        if value:
+            text = path.read_text()
+            if f"\n[{table}]\n" not in f"\n{text}" or f"\n{field} =" in text:
+                raise ValueError(f"deploy/{name}.toml: expected a [{table}] table without {field}, to set it")
+            path.write_text(f"\n{text}".replace(f"\n[{table}]\n", f'\n[{table}]\n{field} = "{value}"\n', 1)[1:])
     profile = load_profile(path)
     platform = platform_of(profile)
     lower = platform.options.command_from or platform.instance
@@ -148,6 +154,8 @@ def summarise(name: str, profile: Profile, phases: dict[str, Phase], floor_rtt_m
                         f"{key}_without_learner{suffix}": round(without, 4),
                         f"{key}_deadline_misses{suffix}": round(missed, 4)}
             if level == "lower":  # the platform's tick: its own view, its floor, where the time goes
+                figures |= {f"{key}_platform_p50_ms{suffix}": round(p.platform_ms[0], 3),
+                            f"{key}_platform_p99_ms{suffix}": round(p.platform_ms[1], 3)}
                 seen = (p.taught, floor, p.platform_ms, hop_medians_us(ticks, np.array([p.platform_ms[0]])))
             else:
                 seen = ("", np.nan, (np.nan, np.nan), {})
@@ -160,15 +168,20 @@ def measure(work: Path, quick: bool, floor_rtt_ms: dict[float, float]) -> tuple[
     """Every profile in turn; `floor_rtt_ms`: the Zenoh round trip's median at each profile's rate."""
     seconds = {"teaching": 10.0, "student": 10.0} if quick else {"teaching": 60.0, "student": 30.0}
     rows, figures = [], {}
-    for name, security in RUNS:
-        profile, phases = watch(name, work, seconds, security)
-        label = f"{name}_{security}" if security else name
+    for label, name, security, tick_cpus in RUNS:
+        profile, phases = watch(name, work, seconds, security, tick_cpus)
         more_rows, more = summarise(label, profile, phases, floor_rtt_ms[platform_of(profile).options.rate])
         rows += more_rows
         figures |= more
-    for suffix in ("", "_teaching"):  # what security (mutual TLS, access control at every peer) costs the tick
+    for suffix in ("", "_teaching"):
+        # what security (mutual TLS, access control at every peer) costs the tick
         secured, off = figures["mirroring_tick_p50_ms" + suffix], figures["mirroring_off_tick_p50_ms" + suffix]
         figures["security_tick_p50_ratio" + suffix] = round(secured / off, 3)
+        # what the tick path on CPUs of its own (services.placement) changes: placed over unplaced, the platform's
+        # own view too (the observer, unplaced, wakes beside the recorder and page)
+        for what in ("tick_p50_ms", "tick_p99_ms", "platform_p50_ms", "platform_p99_ms"):
+            placed, unplaced = figures[f"mirroring_{what}{suffix}"], figures[f"mirroring_unplaced_{what}{suffix}"]
+            figures[f"placement_{what.removesuffix('_ms')}_ratio{suffix}"] = round(placed / unplaced, 3)
     return rows, figures
 
 

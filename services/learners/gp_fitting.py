@@ -17,6 +17,8 @@ from functools import partial
 
 import numpy as np
 
+from services.placement import to_background
+
 from .gp_evidence import Hyper
 from .gp_factor import Built, Shape, extend, fit_and_build, shape_of
 from .gp_split import RELEVANCE_RATIO, fit_and_split
@@ -50,8 +52,14 @@ def _pool(name: str) -> Executor:
     pool = _POOLS.get(name)
     if pool is None or getattr(pool, "_broken", False):
         pool = _POOLS[name] = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                                  initializer=_outlive_not, initargs=(os.getpid(),))
+                                                  initializer=_start_fitting, initargs=(os.getpid(),))
     return pool
+
+
+def _start_fitting(parent: int) -> None:
+    """A fitting process's first act: off the tick path's CPUs (services.placement), then watch its learner."""
+    to_background()
+    _outlive_not(parent)
 
 
 def _outlive_not(parent: int) -> None:

@@ -156,8 +156,9 @@ def ps(args) -> int:
         why = row.get("why") or (f"exit {row['exit']}" if row["state"] in ("failed", "backoff") else "")
         refused = " ".join(f"{k}={v}" for k, v in sorted(row.get("refused", {}).items()))
         refused = f"refused: {refused}" if refused else ""  # certificates not on the roster, which got nothing
+        cpus = f"cpu {row['cpus']}" if row.get("cpus") else ""  # the profile's tick_cpus (services.placement)
         print(f"{row['name']:<16} {row['box']:<14}{row.get('host', '?')[:11]:<12}{row['pid']:>8}  {row['state']:<9}"
-              f"{row['restarts']:>9}{uptime}  {' '.join(filter(None, (why, rates, ticks, refused)))}")
+              f"{row['restarts']:>9}{uptime}  {' '.join(filter(None, (why, cpus, rates, ticks, refused)))}")
     return 0
 
 

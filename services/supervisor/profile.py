@@ -11,6 +11,7 @@ from pathlib import Path
 from bus_schema import check_name
 from services.boxes import BOX_ROLES, parse_box_args
 from services.own_identities import identities_dir, secured_endpoint
+from services.placement import PlacementError, plan
 
 BOXES = tuple(box for box in BOX_ROLES if box != "router")  # the supervisor starts the profile's router itself
 RESTART = ("never", "on-failure", "always")
@@ -55,6 +56,8 @@ class Profile:
     log_dir: Path
     services: tuple[ServiceSpec, ...]
     low_latency: bool = False  # hold a PM QoS request so CPUs stay out of deep idle (services.realtime)
+    # the tick path on CPUs of its own (services.placement): "auto", "off" or a list of CPU numbers
+    tick_cpus: str | list = "auto"
     # a `dogged certs` directory (a folder per identity): mutual TLS and access control; None: "off"
     security: Path | None = None
     # where learners keep every pair they learned (their --state-dir unless they name one), so a restarted
@@ -168,6 +171,11 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     log_dir = base / _get(head, "log_dir", str, "profile", f"runs/{name}/logs")
     state_dir = _get(head, "state_dir", str, "profile", str(log_dir.parent / "state"))  # "": no state kept
     low_latency = _get(head, "low_latency", bool, "profile", False)
+    tick_cpus = head.get("tick_cpus", "auto")  # its kind and CPUs checked by plan(), which says what is wrong
+    try:
+        plan(tick_cpus)
+    except PlacementError as err:
+        raise ProfileError(f"profile.tick_cpus: {err}") from None
     router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
     if not isinstance(services, dict) or not services:
@@ -200,7 +208,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
                                "zenoh.security to a `dogged certs` directory both machines use")
         router, also_listen = secured_endpoint(router), [secured_endpoint(e) for e in also_listen]
     directory = identities_dir() if own else None if security == "off" else base / security
-    profile = Profile(name, path, router, log_dir, specs, low_latency, directory,
+    profile = Profile(name, path, router, log_dir, specs, low_latency, tick_cpus, directory,
                       base / state_dir if state_dir else None, upstream=join, also_listen=tuple(also_listen),
                       own_security=own)
     if check_security and not own:  # this user's own are made at `up` (ensure_security)
@@ -246,8 +254,8 @@ def check_security_files(profile: Profile) -> None:
                            f"with `dogged certs {profile.security} --profile {profile.path}`")
 
 
-HEAD_FIELDS = ("name", "instance", "log_dir", "state_dir", "low_latency", "record", "record_dir", "record_rotate_mb",
-               "record_rotate_min")
+HEAD_FIELDS = ("name", "instance", "log_dir", "state_dir", "low_latency", "tick_cpus", "record", "record_dir",
+               "record_rotate_mb", "record_rotate_min")
 
 
 def _with_state_dir_under(spec: ServiceSpec, base: Path) -> ServiceSpec:

@@ -12,6 +12,7 @@ import zenoh
 
 from bus_schema import ControlReply, encode
 from services.bus.publishers import HOST
+from services.placement import cpus_of
 from services.supervisor.swap import swap_learner
 
 log = logging.getLogger("dogged.supervisor")
@@ -67,6 +68,8 @@ class Verbs:
             status = self.status_of(proc.spec)
             row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status),
                        instance=proc.spec.instance)
+            if getattr(self, "placement", None) is not None and (cpus := cpus_of(proc.pid)):
+                row["cpus"] = cpus  # where it runs (services.placement): read from the kernel, not its word
             error = status.get("state", {}).get("error")
             if error and isinstance(error, str) and "why" not in row:  # a service says what it cannot do
                 row["why"] = error[:200]
