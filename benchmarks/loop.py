@@ -21,8 +21,8 @@ user's own identities and with the tick path on CPUs of its own, as they run by 
 too: `<profile>_platform_p50_ms`, `_p99_ms`), and mirroring again with security = "off" (`mirroring_off_*`;
 `security_tick_p50_ratio[_teaching]`: secured over unsecured, same run) and with tick_cpus = "off"
 (`mirroring_unplaced_*`; `placement_<figure>_ratio[_teaching]`: placed over unplaced, same run), and each
-learner's cost per call at the profiles' shapes (`learner_*`, benchmarks/lib/learner_costs.py). Prints tables; the last line is one JSON
-object of the figures.
+learner's cost per call at the profiles' shapes (`learner_*`, benchmarks/lib/learner_costs.py). Prints tables;
+the last line is one JSON object of the figures.
 """
 from __future__ import annotations
 
