@@ -1,6 +1,6 @@
 """The tick path on CPUs of its own (services/placement.py): what a profile's `tick_cpus` asks, refused with the
 field named when it cannot be had; which box goes where; a process moved whole, its threads made before included;
-a learner learning its history off the tick path's CPUs and back on them once it serves live."""
+a learner learning its history on every CPU it is given, and on the tick path's once it serves live."""
 import os
 import subprocess
 import sys
@@ -102,26 +102,36 @@ def test_a_process_moves_whole_its_threads_made_before_included():
     assert run_python(code, {CPUS_ENV: ""}) == f"True 4 {[str(first)]}"
 
 
-def test_a_learner_learns_its_history_off_the_tick_paths_cpus_and_serves_live_back_on_them(monkeypatch):
+def test_a_learner_learns_its_history_on_every_cpu_it_is_given_and_serves_live_on_the_tick_paths(monkeypatch):
     from services.boxes import learner as learner_box
     from tests.test_learner_box import pair
     from tests.test_learner_catch_up import node
     moves = []
-    monkeypatch.setattr(learner_box, "to_background", lambda: moves.append("background"))
+    monkeypatch.setattr(learner_box, "to_every_cpu", lambda: moves.append("every"))
     monkeypatch.setattr(learner_box, "take_own_cpus", lambda: moves.append("own"))
     n, _ = node()
     n.replay([pair(s) for s in range(1, 21)])
     n.serve_live_once_caught_up()
     assert moves == [], "not while it has its log to learn"
     n.catch_up(0.0)
-    assert moves == ["background"] and n.backlog
+    assert moves == ["every"] and n.backlog
     while n.backlog:
         n.catch_up(0.0)
-    assert moves == ["background", "own"] and n.serving_live
+    assert moves == ["every", "own"] and n.serving_live
     n.on_pair(pair(21))  # taught once live: that is the tick path's work, where it is
     n.catch_up(0.0)
-    assert moves == ["background", "own"]
+    assert moves == ["every", "own"]
     fresh, _ = node("fresh")
     moves.clear()
     fresh.serve_live_once_caught_up()  # nothing to learn first: it stays where it started
     assert moves == ["own"] and np.isfinite(fresh.wait())
+
+
+@pytest.mark.live
+def test_every_cpu_is_its_own_and_the_background_ones():
+    cpus = sorted(os.sched_getaffinity(0))
+    if len(cpus) < 2:
+        pytest.skip("needs two CPUs")
+    code = "from services.placement import to_every_cpu\nprint(to_every_cpu(), masks())"
+    both = f"{cpus[0]},{cpus[-1]}" if cpus[-1] - cpus[0] > 1 else f"{cpus[0]}-{cpus[-1]}"
+    assert run_python(code, {CPUS_ENV: str(cpus[-1]), BACKGROUND_ENV: str(cpus[0])}) == f"True {[both]}"

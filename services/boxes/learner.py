@@ -33,7 +33,7 @@ from services.bus.runtime import BoxRuntime
 from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner, start_upkeep
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
-from services.placement import take_own_cpus, to_background
+from services.placement import take_own_cpus, to_every_cpu
 from services.params import parse_params
 
 
@@ -161,8 +161,8 @@ class LearnerNode:
         if self._catching_up_since is None:
             self._catching_up_since = time.monotonic()
             self.log.info("learning %d pairs between answers (unsure until then)", len(self.backlog))
-            if not self.serving_live:  # learning as offline is background work: off the tick path's CPUs
-                to_background()
+            if not self.serving_live:  # not serving yet: minutes of a core's work, on every CPU it is given
+                to_every_cpu()
         end = time.monotonic() + budget_s
         while self.backlog:
             # a pair at a time, as `dogged replay` learns them: before serving live the model learns as offline, where
