@@ -4,8 +4,9 @@ A tick is a chain (platform -> learner -> arbitrator -> platform, with perceptio
 upper level on the way): one process at a time works on it. The recorder, the page, the handler, the
 router and a learner's fitting processes wake on the same samples, and on a machine of few cores they
 took the cores the tick's next process waited for. Given a core of its own the tick path was faster on
-mirroring as deployed (docs/results.md, "The tick path on a CPU of its own"): the platform's own p50
-3.2-3.35 -> 2.34-2.44 ms, its p99 while taught 10-12 -> 5.6-8.2 ms.
+mirroring as deployed (docs/results.md, "The tick path on a CPU of its own"; 2 cores, three alternated rounds):
+the platform's own p50 while the student drove 3.27-3.48 -> 2.74-2.84 ms, its p99 while taught 10.8-11.9 ->
+6.4-8.3 ms.
 
 `[profile] tick_cpus`: "auto" (the default: the upper half of the CPUs the supervisor may use, when it may
 use two or more), "off" (every process anywhere, as the kernel likes), or a list of CPU numbers. The
@@ -15,7 +16,8 @@ it has a thread: the threads it makes after inherit them. A GP's fitting process
 CPUs. A learner learning its history before it serves (a restart's log, a swap's history: minutes of a core)
 may use every CPU given until it serves live: kept to the background ones it shared one core with the
 recorder, the page and the browser, and an hour's swaps took 1.7-3x as long (knn 3.5 -> 5.8 s, LWPR 4.5 ->
-13.7 s on the soak's history), while the old learner served anyway.
+13.7 s on the soak's history; the wired per-output GP 256 -> 609 s, a CI running beside it), while the old
+learner served anyway.
 """
 from __future__ import annotations
 
