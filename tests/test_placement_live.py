@@ -1,12 +1,12 @@
 """`dogged up` puts the tick path on CPUs of its own (services/placement.py), as the kernel sees it: every thread
 of every service where its box goes, a GP learner's fitting processes off the tick path, and `dogged ps` saying so."""
-import json
 import os
 
 import pytest
 
 from rigs.harness import dogged, dogged_ok, free_port, wait_until
 from services.placement import TICK_PATH_BOXES, plan, spell
+from tests.test_supervisor import ps
 
 pytestmark = pytest.mark.live
 
@@ -67,11 +67,8 @@ def test_up_places_the_tick_path_on_its_own_cpus_and_everything_else_off_them(tm
     profile.write_text(PROFILE.format(logs=tmp_path / "logs"))
     sup = dogged("up", str(profile), "--router", endpoint, "--quiet", log=tmp_path / "supervisor.log")
     try:
-        def ready():
-            out = dogged_ok("ps", "--json", endpoint=endpoint)
-            rows = {r["name"]: r for r in json.loads(out.stdout)["services"]} if out.returncode == 0 else {}
-            return rows if rows and all(r["state"] == "ready" for r in rows.values()) else None
-        rows = wait_until(ready, 90, "every service ready", poll=0.5)
+        rows = wait_until(lambda: (r := ps(endpoint)) and all(x["state"] == "ready" for x in r.values()) and r, 90,
+                          "every service ready", poll=0.5)
         assert set(rows) == {"router", "recorder", "platform", "teacher", "learner", "arbitrator"}
         for name, row in rows.items():
             where = tick if row["box"] in TICK_PATH_BOXES else rest
@@ -85,8 +82,7 @@ def test_up_places_the_tick_path_on_its_own_cpus_and_everything_else_off_them(tm
         text = dogged_ok("ps", endpoint=endpoint).stdout
         line = next(li for li in text.splitlines() if li.startswith("learner"))
         assert f"cpu {spell(placement.tick)}" in line, line
-        log = (tmp_path / "logs" / "supervisor.log")
-        said = log.read_text() if log.exists() else (tmp_path / "supervisor.log").read_text()
+        said = (tmp_path / "supervisor.log").read_text()  # its log goes to its stderr
         assert "the tick path (" in said and f"on CPU {spell(placement.tick)}" in said
     finally:
         dogged_ok("down", endpoint=endpoint)

@@ -11,7 +11,7 @@ from pathlib import Path
 from bus_schema import check_name
 from services.boxes import BOX_ROLES, parse_box_args
 from services.own_identities import identities_dir, secured_endpoint
-from services.placement import PlacementError, plan
+from services.placement import Placement, PlacementError, plan
 
 BOXES = tuple(box for box in BOX_ROLES if box != "router")  # the supervisor starts the profile's router itself
 RESTART = ("never", "on-failure", "always")
@@ -68,6 +68,11 @@ class Profile:
     upstream: str | None = None
     also_listen: tuple[str, ...] = ()  # more endpoints the router listens on (a quic/ one for a radio link)
     own_security: bool = False  # `security` is this user's own identities (the default), made at `up`
+
+    @cached_property
+    def placement(self) -> Placement | None:
+        """Where its processes run (services.placement; None: anywhere), among the CPUs this process may use."""
+        return plan(self.tick_cpus)
 
     def service_args(self, spec: ServiceSpec) -> tuple[str, ...]:
         """The service's arguments, with the profile's state directory for a learner that names none."""
@@ -171,11 +176,7 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     log_dir = base / _get(head, "log_dir", str, "profile", f"runs/{name}/logs")
     state_dir = _get(head, "state_dir", str, "profile", str(log_dir.parent / "state"))  # "": no state kept
     low_latency = _get(head, "low_latency", bool, "profile", False)
-    tick_cpus = head.get("tick_cpus", "auto")  # its kind and CPUs checked by plan(), which says what is wrong
-    try:
-        plan(tick_cpus)
-    except PlacementError as err:
-        raise ProfileError(f"profile.tick_cpus: {err}") from None
+    tick_cpus = head.get("tick_cpus", "auto")  # its kind and CPUs checked below, by placement
     router = router or _get(data.get("zenoh", {}), "router", str, "zenoh", "tcp/127.0.0.1:7447")
     services = data.get("services")
     if not isinstance(services, dict) or not services:
@@ -211,6 +212,10 @@ def load_profile(path: str | Path, router: str | None = None, check_security: bo
     profile = Profile(name, path, router, log_dir, specs, low_latency, tick_cpus, directory,
                       base / state_dir if state_dir else None, upstream=join, also_listen=tuple(also_listen),
                       own_security=own)
+    try:  # worked out once, here (cached): a tick_cpus that cannot be had stops the profile at load
+        _ = profile.placement
+    except PlacementError as err:
+        raise ProfileError(f"profile.tick_cpus: {err}") from None
     if check_security and not own:  # this user's own are made at `up` (ensure_security)
         check_security_files(profile)
     return profile

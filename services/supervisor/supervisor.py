@@ -25,7 +25,7 @@ from services.bus.inbox import Inbox
 from services.bus.lifecycle import StopFlag
 from services.boxes.router import CANNOT_LISTEN, ROUTING
 from services.own_identities import PAGE_TOKEN_ENV, NotPrivate, announce, withdraw
-from services.placement import move_process, plan
+from services.placement import move_process
 from services.realtime import hold_low_latency
 from services.refusals import Refusals
 from services.security import ROSTER_ENV, identities_in
@@ -66,7 +66,6 @@ class Supervisor(Verbs):
         # the identities access control knows, read once: every process started, restarted or swapped in
         # enforces this same roster; a certificate made later is refused until the profile restarts
         self.roster = identities_in(profile.security) if profile.security is not None else []
-        self.placement = plan(profile.tick_cpus)  # where each process runs (None: anywhere); checked at load
 
     # --- processes --------------------------------------------------------------------------
     def command_for(self, spec: ServiceSpec) -> list[str]:
@@ -85,8 +84,8 @@ class Supervisor(Verbs):
     def process(self, spec: ServiceSpec, command: list[str]) -> ManagedProcess:
         """A process to manage, told its CPUs; under security its log is read for what its access control
         refused."""
-        if self.placement is not None:
-            spec = replace(spec, env={**spec.env, **self.placement.env_for(spec.box)})
+        if self.profile.placement is not None:
+            spec = replace(spec, env={**spec.env, **self.profile.placement.env_for(spec.box)})
         proc = ManagedProcess(spec, command, self.profile.log_dir, self.echo)
         if self.profile.security is not None:
             proc.refusals = Refusals(self.roster, spec.name, log)
@@ -252,9 +251,9 @@ class Supervisor(Verbs):
         prof = self.profile
         if prof.low_latency and hold_low_latency(log):
             log.info("low latency: CPUs kept out of deep idle while %s runs", prof.name)
-        if self.placement is not None:  # this process watches and restarts: the tick path's CPUs are not its
-            move_process(self.placement.rest)
-            log.info("%s", self.placement.describe())
+        if prof.placement is not None:  # this process watches and restarts: the tick path's CPUs are not its
+            move_process(prof.placement.rest)
+            log.info("%s", prof.placement.describe())
         for spec in prof.services:  # before any starts: a learner swapped in last run left the newest pairs
             if spec.box == "learner":
                 adopt_successor_log(prof.state_dir_of(spec), spec.name)

@@ -68,7 +68,7 @@ class Verbs:
             status = self.status_of(proc.spec)
             row.update(rates=status.get("rates", {}), host=status.get("host", HOST), ticks=tick_counters(status),
                        instance=proc.spec.instance)
-            if getattr(self, "placement", None) is not None and (cpus := cpus_of(proc.pid)):
+            if self.profile.placement is not None and (cpus := cpus_of(proc.pid)):
                 row["cpus"] = cpus  # where it runs (services.placement): read from the kernel, not its word
             error = status.get("state", {}).get("error")
             if error and isinstance(error, str) and "why" not in row:  # a service says what it cannot do
