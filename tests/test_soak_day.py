@@ -65,3 +65,17 @@ def test_the_first_and_last_spells_alone_share_their_arena():
 def test_a_day_too_short_for_a_lesson_is_refused():
     with pytest.raises(ValueError, match="--hours must be > 0"):
         pace(0.0, False)
+
+
+@pytest.mark.parametrize("hours, quick", [(1.0, False), (0.25, False), (0.0, True)])
+def test_the_last_lesson_waits_for_the_last_swap_after_the_spell_before_it_closed(hours, quick):
+    day_events = events(hours, quick)
+    holds = [i for i, e in enumerate(day_events) if e.kind == "hold"]
+    assert len(holds) == 1
+    hold = day_events[holds[0]]
+    last_lesson = [e for e in day_events if e.kind == "teach" and e.arg[1]][-1]
+    assert hold.at == last_lesson.at and day_events.index(last_lesson) > holds[0]
+    before = day_events[:holds[0]]
+    assert [e.arg for e in before if e.kind == "alone"][-1] == (False,)  # no span open while it waits
+    assert [e for e in before if e.kind == "arena"][-1].at == hold.at
+    assert all(e.at < hold.at for e in day_events if e.kind == "swap")

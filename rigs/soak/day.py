@@ -5,8 +5,10 @@ read and tested without a profile; benchmarks/soak.py carries it out.
 Lessons come in a cycle of four spells: the teacher here teaches, the student is alone, the teacher on
 the other host teaches (every other time its link is cut a while and restored), the student is alone.
 The day ends on a spell alone, with the learner the profile wires (the swaps go through the others and
-back before it). A person drives from the page now and then, at the start of a spell alone; the student's
-error is measured only while it is alone and nobody drives (`alone` events).
+back before it): before the day's last lesson it waits for a swap still under way (`hold`), so that the last
+spell alone is the wired learner's however long its swap took. A person drives from the page now and then,
+at the start of a spell alone; the student's error is measured only while it is alone and nobody drives
+(`alone` events).
 """
 from __future__ import annotations
 
@@ -14,7 +16,8 @@ import random
 from dataclasses import dataclass
 
 # kinds of events; `alone` opens (True) or closes (False) a span in which the student's error counts
-KINDS = ("teach", "alone", "cut", "heal", "drive", "swap", "kill", "stranger", "fill", "free", "arena")
+# `hold`: the day's clock stops here until no swap is under way or due (Driver.run)
+KINDS = ("teach", "alone", "cut", "heal", "drive", "swap", "kill", "stranger", "fill", "free", "arena", "hold")
 DISRUPTIVE = ("swap", "kill", "stranger", "fill")  # kept apart from each other (see `spaced`)
 SETTLE_S = 1.0  # after a teacher stops or a person lets go, before the student counts as alone
 FIRST_KILLED = ("router", "recorder")  # killed first, so even a short day kills both
@@ -140,4 +143,8 @@ def day(p: Pace, teachers: tuple[str, str], services: list[str], others: list[st
     fill = next((e for e in events if e.kind == "fill"), None)
     if fill and free and free.at < fill.at + p.fill_s:  # the fill moved: the disk stays full as long
         events = sorted([e for e in events if e is not free] + [Event(fill.at + p.fill_s, "free")])
-    return events
+    # the last lesson waits for the last swap (the wired learner's, with the whole day's history to learn: 823 s
+    # for 43,897 pairs in an hour at dafb009, past its 600 s slot, so the gp before it was judged at the end).
+    # At the lesson's start, after the spell before it closed and the arena was set ("alone", "arena" < "hold")
+    last_lesson = max(e.at for e in events if e.kind == "teach" and e.arg[1])
+    return sorted(events + [Event(last_lesson, "hold")])

@@ -82,6 +82,17 @@ class Row:
     restarts: dict
 
 
+def take_due(queue: list[Event], now: float, held_s: float, swapping: bool) -> tuple[Event | None, float]:
+    """The next event of `queue` due at `now` (seconds since the day began) on the day's clock, which is `held_s`
+    behind; and held_s. At a `hold` while `swapping` none: the clock stands still there (held_s grows with the
+    wait), so every later event moves on by the wait."""
+    if not queue or queue[0].at > now - held_s:
+        return None, held_s
+    if queue[0].kind == "hold" and swapping:
+        return None, now - queue[0].at
+    return queue.pop(0), held_s
+
+
 class Driver:
     def __init__(self, rig: Rig, watch: LoopWatch, pace: Pace, log=print):
         self.rig, self.watch, self.pace, self.log = rig, watch, pace, log
@@ -98,6 +109,7 @@ class Driver:
         self._reconciled = 0.0
         self._ps: dict = {}
         self.driving_until = 0.0
+        self.held_s = 0.0  # how long the day's clock stood still at its `hold`, for a swap under way
         self._queue: list[Event] = []
         self._marks = {"ticks": 0, "answers": 0, "errors": 0, "at": 0.0}
         self._pair_log = sampling.PairLogCount()
@@ -111,8 +123,11 @@ class Driver:
         next_sample, taken = self.pace.sample_s, 0.0
         while True:
             now = time.time() - self.t0
-            while self._queue and self._queue[0].at <= now:
-                self.do(self._queue.pop(0))
+            while True:
+                event, self.held_s = take_due(self._queue, now, self.held_s, self.swapping())
+                if event is None:
+                    break
+                self.do(event)
             if now - taken >= 0.25 or now < self.driving_until:
                 self.watch.take()
                 taken = now
@@ -120,12 +135,16 @@ class Driver:
             if now >= next_sample:
                 self.sample()
                 next_sample += self.pace.sample_s
-            if now >= self.pace.length_s and not self._queue and not self.pending():
+            if now - self.held_s >= self.pace.length_s and not self._queue and not self.pending():
                 break
             time.sleep(0.05)
 
     def pending(self) -> bool:
-        return bool(self.swaps_due) or any(s.end is None for s in self.swaps) or any(not b.result for b in self.bursts)
+        return self.swapping() or any(not b.result for b in self.bursts)
+
+    def swapping(self) -> bool:
+        """A swap under way, or due (one that failed, to be asked again)."""
+        return bool(self.swaps_due) or any(s.end is None for s in self.swaps)
 
     def do(self, e: Event) -> None:
         if e.kind == "teach":
@@ -155,6 +174,8 @@ class Driver:
                 self.fills[-1][1] = time.time()
         elif e.kind == "arena":
             self.rig.reset_arena(e.arg[0])
+        elif e.kind == "hold" and self.held_s:
+            self.log(f"{time.time() - self.t0:7.1f} s: the day waited {self.held_s:.1f} s for the last swap")
 
     def switch(self, teacher: str, on: bool) -> None:
         self.wanted[teacher] = (on, time.time())

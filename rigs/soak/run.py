@@ -161,6 +161,8 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
         "back_after_kill_s_max": round(max((k.back_at - k.at for k in recovered), default=0.0), 2),
         "swaps": [s.spec for s in d.swaps if s.tries == 1], "swaps_ok": sum(1 for s in d.swaps if s.ok),
         "swaps_tried_again": sum(1 for s in d.swaps if s.tries > 1),
+        "swap_s": [round(s.end - s.at, 1) if s.end is not None else None for s in d.swaps],
+        "day_held_s": round(d.held_s, 1),  # the day's clock stopped before its last lesson, for the last swap
         "bursts": len(d.bursts), "burst_refused": sum(b.result.get("refused", 0) for b in d.bursts),
         "burst_got_through": sum(b.result.get("got_through", 0) for b in d.bursts),
         "burst_sessions": sum(sum(bool(w.get("session")) for w in b.result.get("ways", {}).values()
