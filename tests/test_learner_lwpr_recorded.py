@@ -112,12 +112,46 @@ def recorded():
         return dict(data)
 
 
+# on such a CPU: the largest difference seen was 3.2e-6 relative (mirroring's); a change of the arithmetic moves O(1)
+OTHER_CPU_RTOL, OTHER_CPU_ATOL = 1e-4, 1e-6
+
+
+@pytest.fixture(scope="module")
+def cpu_differs(recorded) -> str:
+    """Why this CPU cannot answer as recorded, or "" where it can. The answers were recorded, and are checked to
+    the last bit, on CPUs whose vector units numba's kernels sum with in one order; on others the order differs
+    (on an AVX2 machine without AVX-512, 2026-11-28: 4 of the 9 cases, the same code with numpy 2.3 and 2.4 alike;
+    by 1.5e-15 in the point case, 2.6e-9 in mirroring's, where 120 updates compound it). The canary is the point
+    case: where it answers as recorded, every case must; where not, each must still agree to OTHER_CPU_RTOL."""
+    answered, _ = run(*CASES[0])
+    if all(same(value, recorded[key]) for key, value in answered.items()):
+        return ""
+    with np.errstate(invalid="ignore"):
+        worst = max(float(np.nanmax(np.abs(value - recorded[key]), initial=0.0)) for key, value in answered.items())
+    return (f"this CPU's kernels sum in another order than the recording's (the point case differs by up to "
+            f"{worst:.1e}): to the last bit only where the canary matches, "
+            f"to {OTHER_CPU_RTOL:g} relative elsewhere")
+
+
+def same(answered: np.ndarray, recorded: np.ndarray) -> bool:
+    """To the last bit, as assert_array_equal has it (NaN where NaN was recorded)."""
+    try:
+        np.testing.assert_array_equal(answered, recorded, strict=True)
+    except AssertionError:
+        return False
+    return True
+
+
 @pytest.mark.parametrize("case", CASES, ids=[case[0] for case in CASES])
-def test_answers_as_recorded_to_the_last_bit(case, recorded):
+def test_answers_as_recorded_to_the_last_bit(case, recorded, cpu_differs):
     answered, _ = run(*case)
     assert answered.keys() == {key for key in recorded if key.startswith(case[0] + "/")}
     for key, value in answered.items():
-        np.testing.assert_array_equal(value, recorded[key], err_msg=key, strict=True)
+        if cpu_differs and not same(value, recorded[key]):  # the order of the sums, compounded: not the arithmetic
+            np.testing.assert_allclose(value, recorded[key], rtol=OTHER_CPU_RTOL, atol=OTHER_CPU_ATOL,
+                                       err_msg=f"{key} ({cpu_differs})")
+        else:
+            np.testing.assert_array_equal(value, recorded[key], err_msg=key, strict=True)
 
 
 def test_a_snapshot_of_the_flat_array_model_still_loads_answers_and_learns_as_recorded(recorded):
