@@ -30,7 +30,8 @@ from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.queries import ask_owner
 from services.bus.runtime import BoxRuntime
-from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner, start_upkeep
+from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner, start_upkeep, \
+    stop_upkeep
 from services.learners.base import SnapshotError
 from services.pairlog import PairLog, PairLogError
 from services.placement import take_own_cpus, to_every_cpu
@@ -329,6 +330,14 @@ def history_query_problem(params) -> str:
 
 def main(conf: zenoh.Config, instance: str, learner: str, params: dict, name: str = "learner", seed: int = 0,
          state_dir: str | None = None, warm_from: str | None = None) -> int:
+    try:
+        return serve(conf, instance, learner, params, name, seed, state_dir, warm_from)
+    finally:
+        stop_upkeep()  # fits still queued are dropped: what was learned is in the pair log
+
+
+def serve(conf: zenoh.Config, instance: str, learner: str, params: dict, name: str, seed: int,
+          state_dir: str | None, warm_from: str | None) -> int:
     with BoxRuntime(conf, InstanceKeys(instance), "learner", name) as box:
         spaces = box.fetch_spaces()
         if spaces is None:

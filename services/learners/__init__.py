@@ -15,7 +15,8 @@ from .gp import GP  # each learner module registers its learner (services/learne
 from .knn import KNN
 from .lwpr import LWPR
 from .per_output import PerOutput
-from .registry import LEARNERS, compile_kernels, make_learner, parse_learner_spec, start_upkeep
+from .registry import LEARNERS, compile_kernels, make_learner, parse_learner_spec, start_upkeep, \
+    stop_upkeep
 from .sogp import SOGP
 from .student import Student, StudentFileError, load_student, save_student
 
@@ -26,5 +27,5 @@ __all__ = [
     "DEFAULT_LEARNER", "GP", "KNN", "LEARNERS", "LWPR", "Learner", "LearnerInputError", "PerOutput", "Prediction",
            "Predictions",
     "SOGP", "Student", "StudentFileError", "UnknownLearnerError", "compile_kernels", "load_student", "make_learner",
-    "parse_learner_spec", "save_student", "start_upkeep",
+    "parse_learner_spec", "save_student", "start_upkeep", "stop_upkeep",
 ]

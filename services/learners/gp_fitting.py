@@ -100,6 +100,24 @@ def start_fitting() -> None:
             _POOLS[name] = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"gp-{name}")
 
 
+def stop_fitting(grace_s: float = 1.0) -> None:
+    """The service is ending: queued fits are dropped and the fitting processes end now. Left to Python's exit,
+    the pools ran every fit still queued first (a per-output GP's 18 leaves' worth): a learner told to stop
+    was still fitting 5 s later and was killed (benchmarks/soak.py --quick). What it learned is in its pair
+    log, not in a fit under way."""
+    pools = list(_POOLS.values())
+    _POOLS.clear()
+    for pool in pools:
+        pool.shutdown(wait=False, cancel_futures=True)
+    workers = multiprocessing.active_children()  # the pools' processes: spawned by this one
+    for worker in workers:
+        worker.terminate()
+    for worker in workers:
+        worker.join(grace_s)
+        if worker.is_alive():
+            worker.kill()
+
+
 class Refitting:
     """The fitting schedule of a LocalGP, which holds the memory (_xs, _ys, _m), the taught statistics and
     the kernel's working quantities this sets (_use)."""

@@ -10,6 +10,7 @@ from . import snapshot_codec
 from .base import TaughtRange
 from .errors import UnknownLearnerError
 from .gp_evidence import Hyper
+from .gp_fitting import stop_fitting
 from .novelty import InputEnvelope
 
 LEARNERS: dict[str, type] = {}
@@ -60,6 +61,11 @@ def start_upkeep(model) -> None:
     serves live; the model itself learns as offline until it is told to serve live. Started at the model's
     serve_live, after a catch-up, the fitting processes (~400 MB) came as growth of a service running for minutes."""
     model.clone().serve_live()
+
+
+def stop_upkeep() -> None:
+    """The service is ending: upkeep still queued or under way (the GP's fits) is dropped and its processes end."""
+    stop_fitting()
 
 
 def compile_kernels(model) -> None:
