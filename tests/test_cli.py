@@ -88,6 +88,22 @@ def test_a_flag_given_before_the_verb_is_not_undone_by_the_verbs_defaults(monkey
     assert (seen[0].connect, seen[0].cert_dir, seen[0].profile) == (ENDPOINT, "certs", None)
 
 
+@pytest.mark.parametrize("order", ORDERS)
+def test_wait_says_how_long_a_verb_tries_to_reach_the_router(order, monkeypatch):
+    seen = []
+    monkeypatch.setattr(commands, "ps", lambda args: seen.append(args) or 0)
+    assert cli.main(in_order(order, ["ps"], [], ["--wait", "2.5"])) == 0
+    assert seen[0].wait == 2.5
+    assert cli.main(["ps"]) == 0 and seen[1].wait is None  # (the verbs then try for ROUTER_WAIT_S)
+
+
+@pytest.mark.parametrize("bad", ["0", "-1", "nan", "inf", "3601", "soon"])
+def test_a_wait_that_is_not_a_sensible_number_of_seconds_is_refused_naming_the_flag(bad, capsys):
+    with pytest.raises(SystemExit) as refused:
+        cli.main(["ps", "--wait", bad])
+    assert refused.value.code == 2 and "--wait must be seconds" in capsys.readouterr().err
+
+
 def dogged(*argv: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "services.cli", *argv], cwd=REPO, capture_output=True, text=True,
                           timeout=60)

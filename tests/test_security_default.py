@@ -80,12 +80,12 @@ def test_a_process_without_this_users_identities_gets_nothing(own_profile, tmp_p
     endpoint, sup = own_profile
     stranger = {**os.environ, "DOGGED_HOME": str(tmp_path / "stranger")}
     for args in (("teach", "off"), ("down",)):
-        said = verb("--connect", endpoint, *args, env=stranger)
+        said = verb("--connect", endpoint, "--wait", "3", *args, env=stranger)
         assert said.returncode == 1 and "cannot reach the router" in said.stderr, said.stderr
     # a CA of its own, an operator's certificate of it, over TLS to the right port: refused at the handshake
     make_certs(tmp_path / "eve", ["operator.eve"])
     forged = {**stranger, "DOGGED_SECURITY": str(tmp_path / "eve" / "operator.eve"), "DOGGED_IDENTITY": "operator.eve"}
-    said = verb("--connect", endpoint.replace("tcp/", "tls/"), "down", env=forged)
+    said = verb("--connect", endpoint.replace("tcp/", "tls/"), "--wait", "3", "down", env=forged)
     assert said.returncode == 1 and "cannot reach the router" in said.stderr, said.stderr
     still_teaching_and_up(endpoint, sup)
 

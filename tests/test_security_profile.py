@@ -121,7 +121,7 @@ def test_a_secured_profile_runs_and_only_an_operator_steers_it(tmp_path):
         assert refused.returncode != 0 and "did not answer" in refused.stderr
         assert rows()["arbitrator"]["state"] == "ready" and sup.poll() is None  # still up
         # a person without a certificate is told so, instead of waiting for ever
-        stranger = cli("--connect", endpoint, "ps", timeout=30)
+        stranger = cli("--connect", endpoint, "--wait", "3", "ps", timeout=30)
         assert stranger.returncode == 1 and "cannot reach the router" in stranger.stderr
         assert "DOGGED_SECURITY" in stranger.stderr
     finally:

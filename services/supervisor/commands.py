@@ -104,14 +104,15 @@ ROUTER_WAIT_S = 10.0
 
 def _session(args):
     endpoint = args.connect or os.environ.get("DOGGED_CONNECT", DEFAULT_ROUTER)
+    wait_s = args.wait or ROUTER_WAIT_S
     try:
-        return zenoh.open(zenoh_config(connect=[endpoint], mode="client", give_up_after=ROUTER_WAIT_S))
+        return zenoh.open(zenoh_config(connect=[endpoint], mode="client", give_up_after=wait_s))
     except zenoh.ZError as err:
         secured = "" if os.environ.get("DOGGED_SECURITY") else (
             "; a secured profile's router (tls/...) needs DOGGED_SECURITY and DOGGED_IDENTITY, and one another "
             "user runs (secured by default) lets in that user's own identities only")
         reason = str(err).split(" at /")[0]  # (the rest names zenoh's source file)
-        raise SystemExit(f"dogged: cannot reach the router at {endpoint} within {ROUTER_WAIT_S:.0f} s "
+        raise SystemExit(f"dogged: cannot reach the router at {endpoint} within {wait_s:g} s "
                          f"({reason}){secured}") from None
 
 
