@@ -1,6 +1,7 @@
 """A learner service told to stop ends at once, its GP's queued fits dropped (gp_fitting.stop_fitting): left to
 Python's exit, the fitting pools ran every queued fit first, and a per-output GP's learner was killed 5 s
-after its SIGTERM (benchmarks/soak.py --quick)."""
+after its SIGTERM (benchmarks/soak.py --quick), as was the retired gp of mirroring's hour, in the middle of handing
+its fitter a fit."""
 import subprocess
 import sys
 import textwrap
@@ -17,7 +18,11 @@ SERVICE_ENDING = textwrap.dedent("""
 
     if __name__ == "__main__":
         start_fitting()
-        jobs = [pool().submit(time.sleep, 30) for pool in (_fitter, _splitter) for _ in range(4)]
+        jobs = [_fitter().submit(time.sleep, 30)]
+        # next, a fit's memory larger than a pipe holds, handed to the busy fitter: the pool's feeding thread
+        # blocks writing it (the retired gp of mirroring's hour was killed in that write)
+        jobs.append(_fitter().submit(len, bytes(8 << 20)))
+        jobs += [pool().submit(time.sleep, 30) for pool in (_fitter, _splitter, _splitter, _splitter) for _ in (0, 1)]
         time.sleep(0.5)  # the first of each under way
         started = time.monotonic()
         stop_upkeep()
