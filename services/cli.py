@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import math
 import os
 import sys
 
@@ -67,25 +66,15 @@ def main(argv: list[str] | None = None) -> int:
     return getattr(commands, args.verb)(args)
 
 
-def router_wait(text: str) -> float:
-    """--wait: seconds, more than 0 and at most an hour."""
-    try:
-        seconds = float(text)
-    except ValueError:
-        seconds = math.nan
-    if not 0.0 < seconds <= 3600.0:  # (NaN and inf fail too)
-        raise argparse.ArgumentTypeError(f"--wait must be seconds, more than 0 and at most 3600, got {text!r}")
-    return seconds
-
-
 def global_flags(after_verb: bool = False) -> argparse.ArgumentParser:
     """The flags that say which bus and profile a verb talks to, and as whom. Given after the verb they
     default to nothing: argparse would let a verb's defaults overwrite what was given before it."""
+    from services.boxes.numbers import SECONDS
     from services.bus.config import add_certificate_args
     parser = argparse.ArgumentParser(add_help=False, argument_default=argparse.SUPPRESS if after_verb else None)
     parser.add_argument("--connect", help="router endpoint (default $DOGGED_CONNECT or tcp/127.0.0.1:7447)")
     parser.add_argument("--profile", help="which running profile (default: the only one)")
-    parser.add_argument("--wait", type=router_wait, metavar="SECONDS",
+    parser.add_argument("--wait", type=SECONDS, metavar="SECONDS",
                         help="how long to try reaching the router before saying it cannot (default 10)")
     add_certificate_args(parser)
     return parser

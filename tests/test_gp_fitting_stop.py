@@ -24,7 +24,6 @@ SERVICE_ENDING = textwrap.dedent("""
         jobs.append(_fitter().submit(len, bytes(8 << 20)))
         jobs += [pool().submit(time.sleep, 30) for pool in (_fitter, _splitter, _splitter, _splitter) for _ in (0, 1)]
         time.sleep(0.5)  # the first of each under way
-        started = time.monotonic()
         stop_upkeep()
         finished = sum(job.done() and not job.cancelled() and job.exception() is None for job in jobs)
         print(finished, sum(job.cancelled() for job in jobs), len(multiprocessing.active_children()))
