@@ -14,11 +14,12 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from bus_schema import EVERY_STATUS, Status, decode
+from bus_schema import EVERY_STATUS, InstanceKeys, Status, decode
 from rigs.headless import missing_chromium
 from services import waiting
 from services.bus.config import zenoh_config
-from services.bus.publishers import wait_matching
+from services.bus.publishers import lossless_publisher, wait_matching
+from services.demo.live import switch_teaching
 from services.own_identities import HOME_ENV
 from services.supervisor.commands import wait_announced
 from services.supervisor.process import dump_stacks_then_kill
@@ -98,6 +99,7 @@ class Probe:
         self.reports: collections.Counter = collections.Counter()  # statuses heard, per member
         self.samples: dict[str, list] = {}
         self._lock = threading.Lock()
+        self._teach = None  # (teach)
         self.session.declare_subscriber(EVERY_STATUS, self._on_status)
 
     def _on_status(self, sample):
@@ -144,6 +146,13 @@ class Probe:
         wait_matching(pub, 3.0)
         pub.put(payload)
         pub.undeclare()
+
+    def teach(self, on: bool, instance: str = "main") -> None:
+        """Every teacher of `instance` on or off, as the page's switch does (services.demo.live.switch_teaching)."""
+        keys = InstanceKeys(instance)
+        if self._teach is None:
+            self._teach = lossless_publisher(self.session, keys.teach)
+        switch_teaching(self.session, self._teach, keys, on)
 
     def close(self):
         self.session.close()

@@ -1,5 +1,5 @@
 """Gymnasium tasks taught over the bus: the gym platform, a teacher, the wired learner (deploy/gym.toml)
-and the arbitrator as real processes; a person switches the teacher with `dogged teach`; the student is
+and the arbitrator as real processes; a person switches the teacher as the page does; the student is
 judged alone on the episodes the platform reports on dl/main/episode. Scores: 0 a random policy's mean
 return, 1 the teacher's (services.experiments.gym.baseline)."""
 import time
@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from bus_schema import Episode, InstanceKeys, decode
-from rigs.harness import Probe, dogged, dogged_ok, stop
+from bus_schema import Episode, InstanceKeys, TrainingPair, decode
+from rigs.harness import Probe, dogged, stop
 from rigs.live.fits import caught_up
 from services.experiments import gym
 from services.experiments.wiring import wired_learner
@@ -34,22 +34,24 @@ def start(router, tmp_path, env: str, teacher: str) -> list:
             dogged("run", "arbitrator", *connect, log=tmp_path / "arbitrator.log")]
 
 
-def teach(probe: Probe, router: str, pairs: int, statuses: list) -> None:
-    """The person teaches `pairs` training pairs in slices of SLICE, switching the teacher off after each until
-    the learner's fits have caught up (its status: no upkeep under way). In lockstep the loop runs many times
-    faster than a person's 50 Hz and the fits, on their own thread, fell behind: taught 4000 pairs in one go,
+def teach(probe: Probe, pairs: int, statuses: list, taught_pairs: list) -> None:
+    """The person teaches `pairs` training pairs in slices of SLICE, switching the teacher off after each (as the
+    page's switch does) until the learner's fits have caught up (its status: no upkeep under way once it has
+    learned the last pair taught, `taught_pairs` the pairs recorded on the bus). In lockstep the loop runs many
+    times faster than a person's 50 Hz and the fits, on their own thread, fell behind: taught 4000 pairs in one go,
     the live GP was never split and its student, sure and wrong, scored 0.46 (seed 0; 1.00 offline); in
     slices of 250, as a 50 Hz lesson leaves them time, 1.00 on each of 4 seeds (in slices of 500, one seed
     of 4 was still never split: 0.42)."""
     target, waits = probe.counter(ARBITRATOR, "train_pairs") + pairs, []
     while (taught := probe.counter(ARBITRATOR, "train_pairs")) < target:
         step = min(SLICE, target - taught)
-        assert dogged_ok("teach", "on", endpoint=router).returncode == 0
+        probe.teach(True)
         goal = taught + step
         probe.wait_for(lambda goal=goal: probe.counter(ARBITRATOR, "train_pairs") >= goal, 180, f"{step} pairs taught")
-        assert dogged_ok("teach", "off", endpoint=router).returncode == 0
-        since = time.monotonic()
-        probe.wait_for(lambda since=since: caught_up(statuses, since), 180, "the learner's fits to catch up")
+        probe.teach(False)
+        since, last = time.monotonic(), decode(TrainingPair, taught_pairs[-1][1], taught_pairs[-1][0]).seq
+        probe.wait_for(lambda since=since, last=last: caught_up(statuses, since, last), 180,
+                       "the learner's fits to catch up")
         waits.append(time.monotonic() - since)
     print(f"  taught {pairs} pairs in {len(waits)} slices; the fits caught up within {max(waits):.1f} s of each")
 
@@ -81,15 +83,17 @@ def test_taught_over_the_bus_the_student_alone_reaches_the_teacher(router, tmp_p
     probe = Probe(router)
     ended = probe.record("dl/main/episode")
     statuses = probe.record(InstanceKeys("main").status("learner", "learner"))
+    taught_pairs = probe.record(InstanceKeys("main").train)
     try:
-        probe.wait_for(lambda: probe.counter(ARBITRATOR, "commands") > 50, 60, "the loop to run")
-        teach(probe, router, pairs, statuses)
+        probe.wait_for(lambda: probe.counter(ARBITRATOR, "commands") > 50 and
+                       probe.counter("learner/learner", "proposals") > 0, 60, "the loop to run with its learner")
+        teach(probe, pairs, statuses, taught_pairs)
         first = student_alone(probe, ended, episodes, base)
         print("  arbitrator:", {k: probe.counter(ARBITRATOR, k) for k in ("deadline_misses", "members_silenced",
                                                                         "mode_unsure", "mode_student")})
         assert first >= 0.8, f"{env}: taught {pairs} pairs, the student alone scored {first:.2f}"
         if env == "Pendulum-v1":  # more teaching must not make it worse
-            teach(probe, router, 2 * pairs, statuses)
+            teach(probe, 2 * pairs, statuses, taught_pairs)
             again = student_alone(probe, ended, episodes, base)
             assert again >= 0.8 and again >= first - 0.1, f"taught {3 * pairs} pairs: {again:.2f}, after {pairs}: " \
                                                           f"{first:.2f}"

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from bus_schema import InstanceKeys, Input, Proposal, Snapshot, TrainingPair, decode, encode
+from bus_schema import InstanceKeys, Input, Proposal, Snapshot, Status, TrainingPair, decode, encode
 from bus_schema.spaces import Box
 from services.boxes.learner import LearnerNode
 from services.learners import make_learner
@@ -163,3 +163,36 @@ def test_what_serving_live_needs_starts_with_the_service_on_a_copy_not_the_model
     model = make_learner("gp", 2, 1, memory=100, fit_points=64)
     start_upkeep(model)
     assert len(served) == 1 and served[0] is not model and isinstance(served[0], GP)
+
+
+class Fits:
+    """A learner whose upkeep (fits under way) the test sets."""
+
+    def __init__(self, model):
+        self.model, self.upkeep_under_way = model, 0
+
+    def __getattr__(self, name):
+        return getattr(self.model, name)
+
+
+def test_the_status_says_at_once_when_the_fits_end_not_a_second_later(monkeypatch):
+    monkeypatch.setattr("services.boxes.learner.UPKEEP_LOOK_S", 0.0)
+    fits = Fits(make_learner("knn", 2, 1))
+    n, bus = node(model=fits)
+    key = KEYS.status("learner", "student")
+    published = []
+
+    def turn():
+        n.handle([])
+        n.box.status.maybe_publish(n.report)  # as the box's loop does after each batch
+        published.append(len(bus.on(key)))
+
+    turn()  # the first status
+    fits.upkeep_under_way = 2
+    turn()
+    turn()  # fits under way: nothing new to say before the second is up
+    fits.upkeep_under_way = 0
+    turn()  # they ended: said now
+    turn()
+    assert published == [1, 1, 1, 2, 2]
+    assert decode(Status, bus.on(key)[-1], key).counters["upkeep_under_way"] == 0

@@ -9,13 +9,16 @@ from services.demo.live import BusRecorder
 from services.waiting import poll
 
 
-def caught_up(statuses: list, since: float) -> bool:
-    """Whether the newest learner status in `statuses` ((key, bytes, arrival) as recorded), if it arrived over
-    half a second after `since` (so it was composed after), says no fit is under way."""
-    if not statuses or statuses[-1][2] < since + 0.5:
+def caught_up(statuses: list, since: float, taught: int | None = None) -> bool:
+    """Whether the newest learner status in `statuses` ((key, bytes, arrival) as recorded) says no fit is under way,
+    if it was composed after everything taught: with `taught` (the seq of the last pair taught), once the learner
+    had taken that pair in and learned its backlog; without, if it arrived over half a second after `since`."""
+    if not statuses or (taught is None and statuses[-1][2] < since + 0.5):
         return False
     status = decoded(Status, statuses[-1][0], statuses[-1][1])
-    return status is not None and status.counters.get("upkeep_under_way", 1) == 0
+    if status is None or status.counters.get("upkeep_under_way", 1) != 0:
+        return False
+    return taught is None or (status.counters.get("seq", -1) >= taught and status.counters.get("backlog", 1) == 0)
 
 
 def wait_caught_up(bus: BusRecorder, learner: str = "learner", timeout: float = 120.0) -> float:

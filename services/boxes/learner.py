@@ -53,6 +53,7 @@ class LearnerNode:
         self.serving_live = False  # the model's upkeep off the answer path: once its first catch-up is done
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
         self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
+        self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (say_when_fits_end)
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
 
@@ -76,6 +77,20 @@ class LearnerNode:
             self.on_pair(pair)
         if self.backlog:
             self.catch_up(CATCH_UP_SLICE_S)
+        self.say_when_fits_end()
+
+    def say_when_fits_end(self) -> None:
+        """A status at once when the model's upkeep (the GP's fits) ends, not at the next second's: whoever
+        waits for the fits to catch up (a person, `dogged ps`, a test) hears it when it happens. Looked at
+        every UPKEEP_LOOK_S at most, so a status says so at most that often."""
+        now = time.monotonic()
+        if now < self._next_upkeep_look:
+            return
+        self._next_upkeep_look = now + UPKEEP_LOOK_S
+        busy = self.model.upkeep_under_way > 0
+        if self._upkeep_busy and not busy:
+            self.box.status.publish_soon()
+        self._upkeep_busy = busy
 
     def wait(self) -> float:
         """How long the loop may wait for an event: not at all while a backlog is to be learned."""
@@ -309,6 +324,7 @@ def same_params(a, b) -> bool:
 WARM_WAIT_S, ASK_AGAIN_S = 30.0, 0.5
 # a backlog is learned this long at a time between answers: an input waits at most about this for its answer
 CATCH_UP_SLICE_S = 0.005
+UPKEEP_LOOK_S = 0.2  # how often it looks whether the model's fits have ended (say_when_fits_end)
 # a batch's pairs are learned at once for this long; the rest join the backlog. Learned whole, the pairs a loaded
 # learner had fallen behind on came in one batch as the teacher let go, its answers stopped for a fifth of a second,
 # the arbitrator stopped waiting for it and the lockstep simulation ran 43 ticks with the head held (CI, mirroring)

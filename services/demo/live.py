@@ -23,6 +23,18 @@ from services.waiting import poll
 REPO = Path(__file__).resolve().parents[2]
 
 
+def switch_teaching(session: zenoh.Session, publisher: zenoh.Publisher, keys: InstanceKeys, on: bool,
+                    teacher: str = "") -> None:
+    """As a person's switch on the page: teaching on or off (`teacher`, or every teacher), on `publisher` (lossless, on
+    keys.teach), done when the teaching tokens say so; a TimeoutError if they do not within 10 s."""
+    wait_matching(publisher, 5.0)
+    publisher.put(encode(TeachSwitch(teacher, on)))
+    want = keys.teaching(teacher or "*")
+    if poll(lambda: any(r.ok is not None for r in session.liveliness().get(want, timeout=1)) == on, 10, 0.02):
+        return
+    raise TimeoutError(f"teacher {teacher or '(all)'} did not switch {'on' if on else 'off'}")
+
+
 class BusRecorder:
     """A person's view of a running deployment over the bus: records the loop, switches teachers,
     resets the arena. `certificate`: (a `dogged certs` directory, identity) for a secured router."""
@@ -59,13 +71,7 @@ class BusRecorder:
 
     # --- steering ---------------------------------------------------------------------------
     def teach(self, on: bool, teacher: str = "") -> None:
-        wait_matching(self._teach, 5.0)
-        self._teach.put(encode(TeachSwitch(teacher, on)))
-        want = self.keys.teaching(teacher or "*")
-        # the switch is done when the teaching token says so
-        if poll(lambda: any(r.ok is not None for r in self.session.liveliness().get(want, timeout=1)) == on, 10, 0.02):
-            return
-        raise TimeoutError(f"teacher {teacher or '(all)'} did not switch {'on' if on else 'off'}")
+        switch_teaching(self.session, self._teach, self.keys, on, teacher)
 
     def reset_arena(self, seed: int, balls: dict) -> None:
         wait_matching(self._arena, 5.0)
