@@ -5,7 +5,7 @@
         lab.cut("alice"); lab.heal("alice")          # a partition: frames vanish, links stay up
         lab.impair("robot", loss=0.05, jitter_ms=20)  # the robot's radio link
 
-Hosts get 10.<net>.0.<n>/24 on `eth0` (net: the first from 77 this machine routes nowhere) and
+Hosts get 10.<net>.0.<n>/24 on `eth0` (net: the first from 77 no lab holds, routed nowhere) and
 their own loopback. The switch is a bridge in a namespace of its own; a cut takes the host's port
 off the bridge (the cable stays plugged in and up), so nothing reaches either side and neither side
 is told, as when a machine walks out of range. The host named `radio` is cabled through
@@ -16,6 +16,7 @@ the lab's namespaces. Needs root and iproute2 (`ip`); `available()` says whether
 """
 from __future__ import annotations
 
+import fcntl
 import os
 import re
 import shutil
@@ -25,6 +26,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import IO
 from services.waiting import poll
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -75,13 +77,26 @@ def end_namespaces(names) -> None:
         subprocess.run(["ip", "netns", "del", name], capture_output=True)
 
 
-def free_net(first: int = 77) -> int:
-    """A 10.<net>.0.0/24 this machine routes nowhere yet (another lab's observer would claim one)."""
+NET_CLAIMS = Path(tempfile.gettempdir()) / "dogged-netlab-nets"  # a lock file per 10.<net> a lab of this machine holds
+
+
+def claim_net(first: int = 77) -> tuple[int, IO]:
+    """A 10.<net>.0.0/24 this machine routes nowhere yet (another lab's observer would claim one) and no other lab
+    holds: the net and its lock, held until the lab closes it. Two labs built at the same moment (two soaks side by
+    side) chose the same net from the routes alone, before either had routed it."""
     routes = subprocess.run(["ip", "-4", "route"], capture_output=True, text=True).stdout
+    NET_CLAIMS.mkdir(exist_ok=True)
     for net in list(range(first, 255)) + list(range(1, first)):
-        if f"10.{net}." not in routes:
-            return net
-    raise RuntimeError("every 10.<n>.0.0/24 is routed already")
+        if f"10.{net}." in routes:
+            continue
+        lock = open(NET_CLAIMS / f"{net}.lock", "w")
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:  # another lab's
+            lock.close()
+            continue
+        return net, lock
+    raise RuntimeError("every 10.<n>.0.0/24 is routed or held already")
 
 
 def _alive(pid: int) -> bool:
@@ -108,7 +123,9 @@ class Lab:
             raise ValueError(f"radio host {radio!r} is not one of {hosts}")
         Lab._made_here += 1  # sweep_stale_labs() reads the pid back; the count tells this process's labs apart
         self.tag = f"dl{os.getpid()}n{Lab._made_here}"
-        net = free_net() if net is None else net
+        self._claim = None  # the lock holding a net chosen here (claim_net), released at close
+        if net is None:
+            net, self._claim = claim_net()
         self.hosts, self.radio, self.net = list(hosts), radio, net
         self.address = {h: f"10.{net}.0.{i + 1}" for i, h in enumerate(hosts)}
         self.dir = Path(workdir or tempfile.mkdtemp(prefix="netlab-"))
@@ -216,6 +233,9 @@ class Lab:
         self._made.clear()
         if self.observer:  # a namespace outlives its name while any socket in it lingers; so would this cable
             subprocess.run(["ip", "link", "del", f"{self.tag}o"], capture_output=True)
+        if self._claim is not None:
+            self._claim.close()
+            self._claim = None
 
     # --- using it ------------------------------------------------------------------------------
     def command(self, host: str, argv: list[str]) -> list[str]:
