@@ -83,6 +83,9 @@ class FaultResult:
     teacher_kept_teaching: bool  # the person's switch survived the fault
 
 
+SETTLE_S = 0.5  # after teaching paused, for the last pairs to reach the learner
+
+
 class BusRecord:
     """Arrival times of commands, every training pair seen, the newest status of each service."""
 
@@ -91,6 +94,7 @@ class BusRecord:
         self.command_times: list[float] = []
         self.pair_seqs: dict[str, int] = {}  # epoch -> highest seq published
         self.statuses: dict[str, Status] = {}
+        self.status_arrived: dict[str, float] = {}  # name -> when its newest status came (monotonic)
         session = run.session
         self._held = [session.declare_subscriber(keys.command, self._on_command),
                       session.declare_subscriber(keys.train, self._on_pair),
@@ -112,6 +116,7 @@ class BusRecord:
         except SchemaError:
             return
         self.statuses[status.name] = status
+        self.status_arrived[status.name] = time.monotonic()
         if status.role == "arbitrator":
             epoch, seq = status.state.get("epoch"), status.state.get("seq")
             if isinstance(epoch, str) and isinstance(seq, int):
@@ -154,9 +159,13 @@ def wait_restarted(run: LiveRun, service: str, timeout: float = 20.0) -> bool:
 
 
 def pair_deficit(run: LiveRun, record: BusRecord) -> tuple[int, int]:
-    """With teaching paused: (pairs published that the learner does not hold, its pairs_lost count)."""
+    """With teaching paused: (pairs published that the learner does not hold, its pairs_lost count), once the
+    learner and the arbitrator have each said so in a status composed SETTLE_S after the last pair (once a second
+    each: where it waited a fixed 2.5 s, now 0.5-1.5)."""
     run.teach(False)
-    time.sleep(2.5)  # every status refreshed (once a second) after the last pair
+    paused = time.monotonic()
+    poll(lambda: all(record.status_arrived.get(name, 0.0) >= paused + SETTLE_S for name in ("learner", "arbitrator")),
+         10.0, 0.05)
     held, lost = record.learner_pairs()
     return record.published() - held, lost
 
