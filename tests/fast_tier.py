@@ -20,6 +20,7 @@ import pytest
 import zenoh
 
 FLAG = "--fast-tier"
+REST = "--rest-of-tiers"  # the other half: what the fast tier leaves out
 LIVE_FIXTURES = {"router"}  # conftest's fixtures that start a process: a test asking for one is live
 MARKS = {"live": "starts a process or opens a Zenoh session; `make test` runs it, `make check` leaves it out",
          "slow": "starts no process but takes seconds; `make test` runs it, `make check` leaves it out"}
@@ -45,6 +46,8 @@ class StartsAProcess(RuntimeError):
 def pytest_addoption(parser):
     parser.addoption(FLAG, action="store_true", help="make check's tier: leave out the tests marked live or "
                      f"slow, and fail any other that starts a process or uses over {CEILING_S:.0f} s of CPU")
+    parser.addoption(REST, action="store_true", help=f"every test {FLAG} leaves out (marked live or slow, or asking "
+                     "for a fixture that starts a process): make test runs these beside the fast tier")
 
 
 def pytest_configure(config):
@@ -57,6 +60,13 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if LIVE_FIXTURES & set(item.fixturenames):
             item.add_marker(pytest.mark.live)
+    if config.getoption(FLAG) and config.getoption(REST):
+        raise pytest.UsageError(f"{FLAG} and {REST} are the two halves of the tests: ask for one")
+    if config.getoption(REST):
+        fast = [item for item in items if not any(item.get_closest_marker(mark) for mark in MARKS)]
+        config.hook.pytest_deselected(items=fast)
+        items[:] = [item for item in items if any(item.get_closest_marker(mark) for mark in MARKS)]
+        return
     if not config.getoption(FLAG):
         return
     out = [item for item in items if any(item.get_closest_marker(mark) for mark in MARKS)]

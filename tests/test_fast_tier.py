@@ -51,7 +51,7 @@ def test_one_over_the_cpu_ceiling_fails_and_says_to_mark_it_slow_one_that_waits_
     result.stdout.fnmatch_lines(["*test_computes is in make check's fast tier but used 0.1 s of CPU*mark it slow*"])
 
 
-def test_live_and_slow_tests_and_those_asking_for_a_router_are_left_out_of_the_tier_only(pytester):
+def test_live_and_slow_tests_and_those_asking_for_a_router_are_left_out_of_the_tier_and_are_the_rest(pytester):
     pytester.makeconftest("import pytest\n@pytest.fixture\ndef router():\n    yield 'tcp/127.0.0.1:1'\n")
     pytester.makepyfile("""
         import pytest
@@ -65,8 +65,13 @@ def test_live_and_slow_tests_and_those_asking_for_a_router_are_left_out_of_the_t
     tier = pytester.runpytest_inprocess(*TIER, "-v")
     tier.assert_outcomes(passed=1, deselected=3)
     tier.stdout.fnmatch_lines(["*::test_fast PASSED*"])
+    rest = pytester.runpytest_inprocess("-p", "tests.fast_tier", fast_tier.REST, "-v")
+    rest.assert_outcomes(passed=3, deselected=1)
+    rest.stdout.fnmatch_lines(["*::test_live PASSED*", "*::test_slow PASSED*", "*::test_with_a_router PASSED*"])
     everything = pytester.runpytest_inprocess("-p", "tests.fast_tier")
     everything.assert_outcomes(passed=4)
+    both = pytester.runpytest_inprocess(*TIER, fast_tier.REST)
+    both.stderr.fnmatch_lines(["*--fast-tier and --rest-of-tiers are the two halves of the tests: ask for one*"])
 
 
 def test_the_tier_gives_every_door_back_when_it_ends(pytester):

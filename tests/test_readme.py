@@ -20,8 +20,13 @@ def test_the_readme_starts_with_exactly_the_two_commands():
     assert README.startswith("# dogged\n\n```bash\nmake demo\nmake test\n```\n")
 
 
-def test_make_test_is_ruff_and_the_whole_suite_and_ci_runs_it():
-    assert recipe("test") == ["$(VENV)/bin/ruff check .", "$(VENV)/bin/pytest -q -rs"]
+def test_make_test_is_ruff_and_the_whole_suite_in_its_two_halves_side_by_side_and_ci_runs_it():
+    lines = recipe("test")
+    assert lines[0] == "$(VENV)/bin/ruff check ."
+    suite = " ".join(lines[1:])
+    assert f"nice -n 19 $(VENV)/bin/pytest -q -rs -p no:cacheprovider {fast_tier.FLAG} > $(FAST_LOG) 2>&1 &" in suite
+    assert f"$(VENV)/bin/pytest -q -rs {fast_tier.REST}; rest=$$?;" in suite
+    assert suite.endswith("[ $$rest = 0 ] && [ $$tier = 0 ]")  # both halves must pass
     assert (REPO / ".ci" / "run").read_text().rstrip().endswith("\nmake test")
 
 
