@@ -17,9 +17,9 @@ import numpy as np
 def densest_older(z: np.ndarray, born: np.ndarray, count: int) -> np.ndarray:
     """A mask of `count` rows of z (scaled inputs) to drop: greedily, of the closest pair of rows left,
     the one born first (ties: the later row). O(m^2) memory; each drop rescans only the rows that named
-    the dropped one as their nearest. The products by BLAS, the rest compiled (_drop_closest): a full memory
-    of 800 took 11 ms in numpy's temporaries, 8 of them before the first drop, on the learner's answer path
-    where a leaf that never factors (outputs held still) thins its memory."""
+    the dropped one as their nearest. The products by BLAS, the rest compiled (_drop_closest): in numpy, most
+    of it its temporaries before the first drop, a full memory of 800 took 4.5 ms (2.05 now) on the learner's
+    answer path, where a leaf that never factors (outputs held still) thins its memory."""
     m = len(z)
     sq = (z * z).sum(1)
     dropped = np.zeros(m, dtype=bool)
