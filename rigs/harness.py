@@ -90,6 +90,9 @@ def stop(*procs: subprocess.Popen, timeout: float = 10) -> list[int]:
     return codes
 
 
+MAIN = InstanceKeys("main")
+
+
 class Probe:
     """A client session in the test process: the latest status of every service, raw puts."""
 
@@ -147,12 +150,11 @@ class Probe:
         pub.put(payload)
         pub.undeclare()
 
-    def teach(self, on: bool, instance: str = "main") -> None:
-        """Every teacher of `instance` on or off, as the page's switch does (services.demo.live.switch_teaching)."""
-        keys = InstanceKeys(instance)
+    def teach(self, on: bool) -> None:
+        """Every teacher of instance main on or off, as the page's switch does (services.demo.live.switch_teaching)."""
         if self._teach is None:
-            self._teach = lossless_publisher(self.session, keys.teach)
-        switch_teaching(self.session, self._teach, keys, on)
+            self._teach = lossless_publisher(self.session, MAIN.teach)
+        switch_teaching(self.session, self._teach, MAIN, on)
 
     def close(self):
         self.session.close()

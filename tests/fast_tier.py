@@ -62,17 +62,14 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.live)
     if config.getoption(FLAG) and config.getoption(REST):
         raise pytest.UsageError(f"{FLAG} and {REST} are the two halves of the tests: ask for one")
-    if config.getoption(REST):
-        fast = [item for item in items if not any(item.get_closest_marker(mark) for mark in MARKS)]
-        config.hook.pytest_deselected(items=fast)
-        items[:] = [item for item in items if any(item.get_closest_marker(mark) for mark in MARKS)]
+    if not (config.getoption(FLAG) or config.getoption(REST)):
         return
-    if not config.getoption(FLAG):
-        return
-    out = [item for item in items if any(item.get_closest_marker(mark) for mark in MARKS)]
-    config.hook.pytest_deselected(items=out)
-    items[:] = [item for item in items if not any(item.get_closest_marker(mark) for mark in MARKS)]
-    _Guard(config)
+    rest = config.getoption(REST)  # the marked tests; the fast tier: the others
+    marked = [any(item.get_closest_marker(mark) for mark in MARKS) for item in items]
+    config.hook.pytest_deselected(items=[item for item, m in zip(items, marked) if m != rest])
+    items[:] = [item for item, m in zip(items, marked) if m == rest]
+    if config.getoption(FLAG):
+        _Guard(config)
 
 
 def _advice(mark: str) -> str:

@@ -114,10 +114,10 @@ def test_a_swap_answered_with_a_hostile_snapshot_learns_the_history_and_runs_not
 def test_a_swap_whose_old_learner_is_restarting_waits_for_it_and_warms(monkeypatch):
     """(issue 31's soak: the old learner SIGKILLed mid-swap; its replacement started cold, and every pair
     the arbitrator no longer held, those of its earlier runs, was gone with it)"""
-    from services.boxes import learner as learner_box
+    from services.boxes import learner_warming
     from tests.test_learner_box_hostile import node
 
-    monkeypatch.setattr(learner_box, "ASK_AGAIN_S", 0.01)
+    monkeypatch.setattr(learner_warming, "ASK_AGAIN_S", 0.01)
     rng = np.random.default_rng(0)
     xs, ys = rng.uniform(-1, 1, (40, 2)), rng.uniform(-1, 1, (40, 1))
     answers = {"snapshot": Snapshot("SOGP", "e1", 40, 40, b"another class: learn the history"),
