@@ -30,14 +30,12 @@ chromium:
 
 # every test: make check's fast tier (CPU alone: no process, no session) at the lowest priority, beside the rest, whose
 # processes mostly wait on real time; the tier takes what they leave of the cores (its minute of a 2-core CI's 28
-# alone) and never what they need. The rest runs REST_WORKERS test files at a time (pytest-xdist, each file given
-# whole to whichever worker is free, so a module's fixture runs once): one at a time they used half of 2 cores. Its report follows theirs; both must pass
+# alone) and never what they need. Its report follows theirs; both must pass
 FAST_LOG := .fast-tier.log
-REST_WORKERS ?= 2
 test: $(STAMP) chromium
 	$(VENV)/bin/ruff check .
 	@nice -n 19 $(VENV)/bin/pytest -q -rs -p no:cacheprovider --fast-tier > $(FAST_LOG) 2>&1 & fast=$$!; \
-	$(VENV)/bin/pytest -q -rs --rest-of-tiers -n $(REST_WORKERS) --dist loadfile; rest=$$?; \
+	$(VENV)/bin/pytest -q -rs --rest-of-tiers; rest=$$?; \
 	wait $$fast; tier=$$?; echo "--- the fast tier, beside them:"; cat $(FAST_LOG); \
 	[ $$rest = 0 ] && [ $$tier = 0 ]
 

@@ -20,10 +20,7 @@ def pytest_sessionstart(session):
     session's, never the person's own; and every learner's kernels compiled into numba's cache once, in
     one process, before any test: processes that each compile them cold can round differently (a replay
     then differed from the live learner by up to 3e-9), while processes that load the same cache agree
-    bit for bit. Under pytest-xdist (make test's live half) the controller does both before its workers start,
-    and they inherit the folder and load the cache."""
-    if os.environ.get("PYTEST_XDIST_WORKER"):
-        return
+    bit for bit."""
     own = Path(tempfile.mkdtemp(prefix="dogged-home-"))  # 0700, made by mkdtemp
     os.environ[HOME_ENV] = str(own)
     subprocess.run([sys.executable, "-c", COMPILE_EVERY_LEARNER], cwd=REPO, check=True, capture_output=True)

@@ -24,11 +24,6 @@ REST = "--rest-of-tiers"  # the other half: what the fast tier leaves out
 LIVE_FIXTURES = {"router"}  # conftest's fixtures that start a process: a test asking for one is live
 MARKS = {"live": "starts a process or opens a Zenoh session; `make test` runs it, `make check` leaves it out",
          "slow": "starts no process but takes seconds; `make test` runs it, `make check` leaves it out"}
-# the rest's longest modules, longest first (a fresh clone's CI, 2 cores: 80-200 s a test, then 40-55): make test
-# runs the rest two at a time, so these start first, not last with a worker idle beside them
-LONGEST_FIRST = ("test_soak_quick", "test_experiments_live", "test_ui_teleop", "test_hierarchy_live", "test_gym_live",
-                 "test_faults", "test_export_live", "test_unknown_live", "test_fuzz", "test_experiments_user",
-                 "test_hosts")
 CEILING_S = 5.0  # of CPU time (every thread's), a tier test's setup and call: five times the mark's second
 
 # every door a test could start a process or a session by: (owner, attribute, what a refusal calls it)
@@ -73,15 +68,8 @@ def pytest_collection_modifyitems(config, items):
     marked = [any(item.get_closest_marker(mark) for mark in MARKS) for item in items]
     config.hook.pytest_deselected(items=[item for item, m in zip(items, marked) if m != rest])
     items[:] = [item for item, m in zip(items, marked) if m == rest]
-    if rest:
-        items.sort(key=_longest_first)  # stable: the others keep their order
     if config.getoption(FLAG):
         _Guard(config)
-
-
-def _longest_first(item) -> int:
-    module = item.path.stem
-    return LONGEST_FIRST.index(module) if module in LONGEST_FIRST else len(LONGEST_FIRST)
 
 
 def _advice(mark: str) -> str:

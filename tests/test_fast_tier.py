@@ -84,17 +84,3 @@ def test_the_tier_gives_every_door_back_when_it_ends(pytester):
     pytester.runpytest_inprocess(*TIER).assert_outcomes(passed=1)
     assert [getattr(owner, name) for owner, name, _ in fast_tier.DOORS if hasattr(owner, name)] == before
     assert {subprocess.Popen.__init__, os.fork, zenoh.open} <= set(before)
-
-
-def test_the_rest_runs_its_longest_modules_first_and_the_others_in_their_order(pytester, monkeypatch):
-    monkeypatch.setattr(fast_tier, "LONGEST_FIRST", ("test_long", "test_longer_still"))
-    body = "import pytest\npytestmark = pytest.mark.live\ndef test_one(): pass\ndef test_two(): pass\n"
-    pytester.makepyfile(test_a=body, test_long=body, test_z=body, test_longer_still=body)
-    rest = pytester.runpytest_inprocess("-p", "tests.fast_tier", fast_tier.REST, "--collect-only", "-q")
-    order = [line.split("::")[0] for line in rest.stdout.lines if "::" in line]
-    assert order == ["test_long.py"] * 2 + ["test_longer_still.py"] * 2 + ["test_a.py"] * 2 + ["test_z.py"] * 2
-
-
-def test_the_longest_modules_named_are_this_suites():
-    from rigs.harness import REPO
-    assert all((REPO / "tests" / f"{name}.py").exists() for name in fast_tier.LONGEST_FIRST)
