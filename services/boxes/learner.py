@@ -25,11 +25,11 @@ import zenoh
 from bus_schema import (InstanceKeys, Input, PairBatch, Proposal, SchemaError, Snapshot, TrainingPair, decode,
                         encode)
 from services.arbitration.algorithm2 import learn_pair
+from services.boxes.learner_warming import Warming
 from services.boxes.numbers import COUNT
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import decode_or_reject
 from services.bus.queries import ask_owner
-from services.boxes.learner_warming import Warming
 from services.bus.runtime import BoxRuntime
 from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_learner, start_upkeep, \
     stop_upkeep
