@@ -1,13 +1,15 @@
-"""A soaked run's recordings checked once the profile has stopped: every file opens in the mcap CLI (where
-it is installed; else in mcap's own Python reader, as tests/test_recorder_mcap.py reads them) and in
-`dogged replay`, alone and as the whole run; which stretches of the run are missing from them outside the
-faults."""
+"""A soaked run's recordings checked once the profile has stopped: every file passes an MCAP doctor (mcap's own
+CLI where it is installed, else pymcap-cli's, which the test extra installs), opens whole in mcap's own Python
+reader (as tests/test_recorder_mcap.py reads them) and in `dogged replay`, alone and as the whole run; which
+stretches of the run are missing from them outside the faults."""
 from __future__ import annotations
 
 import contextlib
 import io
+import json
 import shutil
 import subprocess
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +25,7 @@ class FileCheck:
     name: str
     mb: float
     finished: bool            # its recorder finished it (MCAP's closing magic)
-    opens: bool               # the mcap CLI's doctor, or mcap's reader, read it whole
+    opens: bool               # an MCAP doctor found no error or warning, and mcap's reader read it whole
     messages: int
     replays: bool             # `dogged replay FILE` exited 0
     said: str = ""            # why not, when it does not
@@ -34,20 +36,43 @@ class RecordingsCheck:
     files: list[FileCheck] = field(default_factory=list)
     run_replays: bool = False  # `dogged replay` of the run's folder
     run_said: str = ""
-    reader: str = ""           # "mcap CLI" or "mcap Python reader"
+    reader: str = ""           # the doctor and reader that read them
 
     @property
     def all_open(self) -> bool:
         return bool(self.files) and all(f.opens and f.replays for f in self.files) and self.run_replays
 
 
+def doctor_command() -> tuple[list[str], str] | None:
+    """The MCAP doctor to run and its name: mcap's CLI where it is on PATH, else pymcap-cli's beside this Python
+    (or on PATH); None where neither is."""
+    if cli := shutil.which("mcap"):
+        return [cli, "doctor"], "mcap CLI doctor"
+    beside = Path(sys.executable).with_name("pymcap-cli")
+    if cli := (str(beside) if beside.exists() else shutil.which("pymcap-cli")):
+        return [cli, "doctor", "--format", "jsonl"], "pymcap-cli doctor"
+    return None
+
+
+def doctor(path: Path) -> tuple[bool, list[dict], str]:
+    """(passed, the findings worse than info where the doctor lists them, its last words) for one file."""
+    command, _ = doctor_command() or ([], "")
+    if not command:
+        return False, [], "no MCAP doctor installed (pip install pymcap-cli)"
+    done = subprocess.run([*command, str(path)], capture_output=True, text=True, timeout=300)
+    lines = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
+    findings = [line for line in lines if line.get("type") == "finding" and line.get("severity") != "info"]
+    said = "; ".join(f"{f.get('severity')} {f.get('code')}: {f.get('message')}" for f in findings) or \
+        (done.stdout + done.stderr).strip()
+    return done.returncode == 0 and not findings, findings, said[-300:]
+
+
 def opens_in_mcap(path: Path) -> tuple[bool, int, str]:
-    """(opens, messages, why not) as the mcap CLI's `doctor` says where it is installed, else as mcap's own
-    reader reads the file (its summary, then every message)."""
-    cli = shutil.which("mcap")
-    if cli:
-        done = subprocess.run([cli, "doctor", str(path)], capture_output=True, text=True, timeout=300)
-        return done.returncode == 0, -1, (done.stdout + done.stderr).strip()[-300:]
+    """(opens, messages, why not): the doctor passes it and mcap's own reader reads it whole (its summary, then
+    every message)."""
+    passed, _, said = doctor(path)
+    if not passed:
+        return False, 0, f"doctor: {said}"
     try:
         with open(path, "rb") as f:
             return True, sum(1 for _ in make_reader(f).iter_messages()), ""
@@ -68,7 +93,7 @@ def replays(run: Path, scratch: Path) -> tuple[bool, str]:
 
 def check(folder: Path, scratch: Path) -> RecordingsCheck:
     scratch.mkdir(parents=True, exist_ok=True)
-    out = RecordingsCheck(reader="mcap CLI" if shutil.which("mcap") else "mcap Python reader")
+    out = RecordingsCheck(reader=f"{(doctor_command() or ([], 'no doctor'))[1]} and mcap's Python reader")
     for path in sorted(folder.glob("*.mcap")):
         opens, messages, why = opens_in_mcap(path)
         replayed, said = replays(path, scratch)

@@ -15,10 +15,10 @@ from mcap.reader import make_reader
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.well_known import MessageEncoding
-from mcap.writer import CompressionType, Writer
 
 from bus_schema import SchemaError, decode
 from bus_schema.catalog import payload_of
+from services.recording.writer import mcap_writer
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -123,8 +123,8 @@ def _rewrite(path: Path, tmp: Path, metadata: dict[str, dict[str, str]]) -> int:
     channels: dict[int, int] = {}
     count = 0
     with open(tmp, "wb") as out:
-        writer = Writer(out, compression=CompressionType.ZSTD)
-        writer.start(profile="dogged", library="dogged recorder (repaired)")
+        # no summary offsets: a file cut before its first message or metadata record leaves those groups empty
+        writer = mcap_writer(out, "dogged recorder (repaired)", summary_offsets=False)
         for record in _records(path, []):
             if isinstance(record, Schema):
                 schemas[record.id] = writer.register_schema(record.name, record.encoding, record.data)

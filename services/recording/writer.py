@@ -11,7 +11,7 @@ from pathlib import Path
 
 import mcap
 from mcap.well_known import MessageEncoding, SchemaEncoding
-from mcap.writer import CompressionType, Writer
+from mcap.writer import CompressionType, IndexType, Writer
 
 from bus_schema.catalog import json_schema
 
@@ -23,7 +23,22 @@ _NAME = "{name}-{index:04d}-{stamp}.mcap"
 MCAP_NEEDED = "1.5.0"
 MCAP_USES = {Writer: ("start", "add_metadata", "register_schema", "register_channel", "add_message", "flush",
                       "finish"),
-             MessageEncoding: ("MessagePack",), SchemaEncoding: ("JSONSchema",), CompressionType: ("ZSTD",)}
+             MessageEncoding: ("MessagePack",), SchemaEncoding: ("JSONSchema",), CompressionType: ("ZSTD",),
+             IndexType: ("CHUNK", "MESSAGE", "METADATA")}
+# The summary's indexes: no attachment's (none is written). mcap's Writer gives every group it indexes a summary
+# offset, an empty one too, and an offset to no record is an error to `mcap doctor` (pymcap-cli's:
+# SUMMARY_OFFSET_WITHOUT_GROUP; every recorded file had one, for the attachments). A file the recorder writes
+# holds a message (it opens at the first) and a metadata record (`recorder`, written first), so none is empty.
+INDEXES = IndexType.CHUNK | IndexType.MESSAGE | IndexType.METADATA
+
+
+def mcap_writer(stream, library: str, summary_offsets: bool = True, chunk_size: int = 1 << 20) -> Writer:
+    """mcap's Writer as every file of ours is written (zstd chunks, INDEXES), started: `summary_offsets` only
+    where no indexed group can be empty."""
+    writer = Writer(stream, chunk_size=chunk_size, compression=CompressionType.ZSTD, index_types=INDEXES,
+                    use_summary_offsets=summary_offsets)
+    writer.start(profile=PROFILE, library=library)
+    return writer
 
 
 class McapTooOld(RuntimeError):
@@ -77,8 +92,8 @@ class RunWriter:
         path = self.next_path()
         self._stream = self.open_file(path, "wb")
         self.path = path  # before anything is written: a file whose header a full disk refused is this one
-        self._writer = Writer(self._stream, chunk_size=1 << 20, compression=CompressionType.ZSTD)
-        self._writer.start(profile=PROFILE, library="dogged recorder")
+        self._writer = mcap_writer(self._stream, "dogged recorder")
+        self._writer.add_metadata("recorder", {"name": self.name, "file": path.name})
         self._schemas, self._channels, self._sequence = {}, {}, {}
         self._opened = self._flushed = time.monotonic()
         self.files_written += 1
