@@ -35,7 +35,7 @@ FAST_LOG := .fast-tier.log
 test: $(STAMP) chromium
 	$(VENV)/bin/ruff check .
 	@nice -n 19 $(VENV)/bin/pytest -q -rs -p no:cacheprovider --fast-tier > $(FAST_LOG) 2>&1 & fast=$$!; \
-	$(VENV)/bin/pytest -q -rs --rest-of-tiers; rest=$$?; \
+	$(VENV)/bin/pytest -q -rs --durations=30 --rest-of-tiers; rest=$$?; \
 	wait $$fast; tier=$$?; echo "--- the fast tier, beside them:"; cat $(FAST_LOG); \
 	[ $$rest = 0 ] && [ $$tier = 0 ]
 
