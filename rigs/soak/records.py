@@ -54,9 +54,10 @@ def doctor_command() -> tuple[list[str], str] | None:
     return None
 
 
-def doctor(path: Path) -> tuple[bool, list[dict], str]:
-    """(passed, the findings worse than info where the doctor lists them, its last words) for one file."""
-    command, _ = doctor_command() or ([], "")
+def doctor(path: Path, found: tuple[list[str], str] | None = None) -> tuple[bool, list[dict], str]:
+    """(passed, the findings worse than info where the doctor lists them, its last words) for one file, by the
+    doctor `found` (doctor_command's, looked up here if not given)."""
+    command = (found or doctor_command() or ([], ""))[0]
     if not command:
         return False, [], "no MCAP doctor installed (pip install pymcap-cli)"
     done = subprocess.run([*command, str(path)], capture_output=True, text=True, timeout=300)
@@ -67,10 +68,10 @@ def doctor(path: Path) -> tuple[bool, list[dict], str]:
     return done.returncode == 0 and not findings, findings, said[-300:]
 
 
-def opens_in_mcap(path: Path) -> tuple[bool, int, str]:
-    """(opens, messages, why not): the doctor passes it and mcap's own reader reads it whole (its summary, then
-    every message)."""
-    passed, _, said = doctor(path)
+def opens_in_mcap(path: Path, found: tuple[list[str], str] | None = None) -> tuple[bool, int, str]:
+    """(opens, messages, why not): the doctor (`found`, see doctor) passes it and mcap's own reader reads it whole
+    (its summary, then every message)."""
+    passed, _, said = doctor(path, found)
     if not passed:
         return False, 0, f"doctor: {said}"
     try:
@@ -93,9 +94,10 @@ def replays(run: Path, scratch: Path) -> tuple[bool, str]:
 
 def check(folder: Path, scratch: Path) -> RecordingsCheck:
     scratch.mkdir(parents=True, exist_ok=True)
-    out = RecordingsCheck(reader=f"{(doctor_command() or ([], 'no doctor'))[1]} and mcap's Python reader")
+    found = doctor_command()  # (once for every file)
+    out = RecordingsCheck(reader=f"{found[1] if found else 'no doctor'} and mcap's Python reader")
     for path in sorted(folder.glob("*.mcap")):
-        opens, messages, why = opens_in_mcap(path)
+        opens, messages, why = opens_in_mcap(path, found)
         replayed, said = replays(path, scratch)
         out.files.append(FileCheck(path.name, round(path.stat().st_size / 1e6, 3), is_finished(path), opens, messages,
                                    replayed, why if not opens else said if not replayed else ""))
