@@ -17,15 +17,17 @@ def test_the_aibo_says_the_rest_once_its_tick_is_answered(router, tmp_path):
         token = probe.session.liveliness().declare_token("dl/main/alive/commanding/test")
         inputs, clocks = probe.record("dl/main/input"), probe.record("robot/aibo/clock")
         pub = probe.session.declare_publisher("dl/main/command")
-        answered_at, seen, deadline = {}, 0, time.monotonic() + 60
-        while len(answered_at) < 90 and time.monotonic() < deadline:
+        # answered until 80 ticks past the first 10 were answered at once (a loaded machine answers some late)
+        answered_at, seen, prompt, deadline = {}, 0, 0, time.monotonic() + 60
+        while prompt < 90 and time.monotonic() < deadline:
             if len(inputs) == seen:
                 time.sleep(0.0005)
                 continue
-            for key, raw, _ in inputs[seen:]:
+            for key, raw, came in inputs[seen:]:
                 tick = decode(Input, raw, key).tick
                 pub.put(encode(Command(tick, time.time(), np.zeros(18), "student", "test/x", 1.0)))
                 answered_at[tick] = time.monotonic()
+                prompt += answered_at[tick] - came < 0.004
             seen = len(inputs)
         time.sleep(0.2)
         token.undeclare()
