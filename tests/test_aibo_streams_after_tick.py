@@ -22,25 +22,24 @@ def test_the_aibo_says_the_rest_once_its_tick_is_answered(router, tmp_path):
         token = probe.session.liveliness().declare_token("dl/main/alive/commanding/test")
         inputs, clocks = probe.record("dl/main/input"), probe.record("robot/aibo/clock")
         pub = probe.session.declare_publisher("dl/main/command")
-        sent, at_once, seen, deadline = {}, 0, 0, time.monotonic() + 60
+        answered, at_once, seen, deadline = [], 0, 0, time.monotonic() + 60  # (input's stamp, command's) per tick
         while at_once < 90 and time.monotonic() < deadline:
             if len(inputs) == seen:
                 time.sleep(0.0005)
                 continue
             for key, raw, _ in inputs[seen:]:
-                given = decode(Input, raw, key)
-                sent[given.tick] = time.time()
-                pub.put(encode(Command(given.tick, sent[given.tick], np.zeros(18), "student", "test/x", 1.0)))
-                at_once += sent[given.tick] - given.stamp < AT_ONCE_S
+                given, sent = decode(Input, raw, key), time.time()
+                pub.put(encode(Command(given.tick, sent, np.zeros(18), "student", "test/x", 1.0)))
+                answered.append((given.stamp, sent))
+                at_once += sent - given.stamp < AT_ONCE_S
             seen = len(inputs)
         time.sleep(0.2)
         token.undeclare()
-        stamps = [(given.tick, given.stamp) for given in (decode(Input, raw, key) for key, raw, _ in inputs)]
         walls = np.array([decode(Clock, raw, key).wall for key, raw, _ in clocks])
         # each tick's clock (the first said after its input: a tick's streams go out before the next input)
         # came after the command sent for it
-        after = [bool(walls[walls > stamp][0] > sent[tick]) for tick, stamp in stamps[10:]
-                 if tick in sent and sent[tick] - stamp < AT_ONCE_S and (walls > stamp).any()]
+        after = [bool(later[0] > sent) for stamp, sent in answered[10:]
+                 if sent - stamp < AT_ONCE_S and (later := walls[walls > stamp]).size]
         assert len(after) > 60, f"{len(after)} ticks answered at once"
         assert np.mean(after) > 0.9, f"a tick's clock came after its command in {np.mean(after):.0%} of {len(after)}"
         assert all(decode(Clock, raw, key).sim_time > 0 for key, raw, _ in clocks[-5:])
