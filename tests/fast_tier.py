@@ -8,7 +8,11 @@ more at seconds' cost) is marked `slow`. `pytest --fast-tier` leaves both out an
 every way to start a process or a session raises, and a test whose setup and call use over CEILING_S of
 CPU fails, each naming the mark to add. (CPU time, not wall time: other work on the machine must not
 fail a test; make check's --durations=5 shows a test that waits.) So a test put in the wrong tier fails
-`make check` rather than slowing it, and `make test` (no flag) runs every test as before."""
+`make check` rather than slowing it, and `make test` (no flag) runs every test as before.
+
+`make test` runs three tiers: the live tests (`--live-tier`) at the machine's priority, and beside them at
+the lowest, the fast tier then the slow one (`--slow-tier`: the tests marked slow and not live, whose doors
+are closed as the fast tier's, without its CPU ceiling). `--rest-of-tiers` is the slow and the live ones."""
 from __future__ import annotations
 
 import multiprocessing.process
@@ -20,9 +24,13 @@ import pytest
 import zenoh
 
 FLAG = "--fast-tier"
-REST = "--rest-of-tiers"  # the other half: what the fast tier leaves out
+SLOW = "--slow-tier"  # the tests marked slow and not live: no process either, any CPU
+LIVE = "--live-tier"  # the tests marked live (or asking for a router)
+REST = "--rest-of-tiers"  # the slow and the live ones: what the fast tier leaves out
+TIERS = {FLAG: ("fast",), SLOW: ("slow",), LIVE: ("live",), REST: ("slow", "live")}
 LIVE_FIXTURES = {"router"}  # conftest's fixtures that start a process: a test asking for one is live
-MARKS = {"live": "starts a process or opens a Zenoh session; `make test` runs it, `make check` leaves it out",
+MARKS = {"live": "starts a process or opens a Zenoh session, or judges wall time: `make test` runs it at the "
+                 "machine's priority, `make check` leaves it out",
          "slow": "starts no process but takes seconds; `make test` runs it, `make check` leaves it out"}
 CEILING_S = 5.0  # of CPU time (every thread's), a tier test's setup and call: five times the mark's second
 
@@ -46,8 +54,11 @@ class StartsAProcess(RuntimeError):
 def pytest_addoption(parser):
     parser.addoption(FLAG, action="store_true", help="make check's tier: leave out the tests marked live or "
                      f"slow, and fail any other that starts a process or uses over {CEILING_S:.0f} s of CPU")
-    parser.addoption(REST, action="store_true", help=f"every test {FLAG} leaves out (marked live or slow, or asking "
-                     "for a fixture that starts a process): make test runs these beside the fast tier")
+    parser.addoption(SLOW, action="store_true", help="the tests marked slow and not live: make test runs them at the "
+                     "lowest priority after the fast tier, beside the live tests; one that starts a process fails")
+    parser.addoption(LIVE, action="store_true", help="the tests marked live, or asking for a fixture that starts a "
+                     "process: make test runs these at the machine's priority")
+    parser.addoption(REST, action="store_true", help=f"every test {FLAG} leaves out: those of {SLOW} and {LIVE}")
 
 
 def pytest_configure(config):
@@ -60,16 +71,22 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if LIVE_FIXTURES & set(item.fixturenames):
             item.add_marker(pytest.mark.live)
-    if config.getoption(FLAG) and config.getoption(REST):
-        raise pytest.UsageError(f"{FLAG} and {REST} are the two halves of the tests: ask for one")
-    if not (config.getoption(FLAG) or config.getoption(REST)):
+    asked = [flag for flag in TIERS if config.getoption(flag)]
+    if len(asked) > 1:
+        raise pytest.UsageError(f"{' and '.join(asked)}: the tiers do not overlap, ask for one")
+    if not asked:
         return
-    rest = config.getoption(REST)  # the marked tests; the fast tier: the others
-    marked = [any(item.get_closest_marker(mark) for mark in MARKS) for item in items]
-    config.hook.pytest_deselected(items=[item for item, m in zip(items, marked) if m != rest])
-    items[:] = [item for item, m in zip(items, marked) if m == rest]
-    if config.getoption(FLAG):
-        _Guard(config)
+    wanted = TIERS[asked[0]]
+    tiers = [_tier(item) for item in items]
+    config.hook.pytest_deselected(items=[item for item, tier in zip(items, tiers) if tier not in wanted])
+    items[:] = [item for item, tier in zip(items, tiers) if tier in wanted]
+    if asked[0] in (FLAG, SLOW):
+        _Guard(config, "make check's fast tier" if asked[0] == FLAG else "the slow tier (no process: it runs beside "
+               "the live tests, at the lowest priority)", CEILING_S if asked[0] == FLAG else None)
+
+
+def _tier(item) -> str:
+    return "live" if item.get_closest_marker("live") else "slow" if item.get_closest_marker("slow") else "fast"
 
 
 def _advice(mark: str) -> str:
@@ -81,11 +98,11 @@ class _Guard:
     """Closes every door (a call there records the attempt on the running test and raises), and fails a
     test whose refusal was caught, or that went over the ceiling."""
 
-    def __init__(self, config):
+    def __init__(self, config, tier: str, ceiling_s: float | None):
+        self.tier, self.ceiling_s = tier, ceiling_s
         self.running: pytest.Item | None = None
         self.attempts: dict[str, list[str]] = {}  # test id -> the doors it tried
         self.cpu_at_start = 0.0  # the running test's: time.process_time() as its setup began
-        self.ceiling_s = CEILING_S
         monkeypatch = pytest.MonkeyPatch()
         config.add_cleanup(monkeypatch.undo)
         for owner, name, what in DOORS:
@@ -100,9 +117,8 @@ class _Guard:
             raise StartsAProcess(self._started(test, [what]))
         return refuse
 
-    @staticmethod
-    def _started(test: str, doors: list[str]) -> str:
-        return (f"{test} is in make check's fast tier but started a process or a Zenoh session "
+    def _started(self, test: str, doors: list[str]) -> str:
+        return (f"{test} is in {self.tier} but started a process or a Zenoh session "
                 f"({', '.join(dict.fromkeys(doors))}): {_advice('live')}")
 
     @pytest.hookimpl(hookwrapper=True)
@@ -120,7 +136,7 @@ class _Guard:
         cpu = time.process_time() - self.cpu_at_start
         if doors:
             report.outcome, report.longrepr = "failed", self._started(item.nodeid, doors)
-        elif cpu > self.ceiling_s:
+        elif self.ceiling_s is not None and cpu > self.ceiling_s:
             report.outcome = "failed"
             report.longrepr = (f"{item.nodeid} is in make check's fast tier but used {cpu:.1f} s of CPU (setup and "
                                f"call), over its {self.ceiling_s:g} s: {_advice('slow')}")

@@ -68,10 +68,36 @@ def test_live_and_slow_tests_and_those_asking_for_a_router_are_left_out_of_the_t
     rest = pytester.runpytest_inprocess("-p", "tests.fast_tier", fast_tier.REST, "-v")
     rest.assert_outcomes(passed=3, deselected=1)
     rest.stdout.fnmatch_lines(["*::test_live PASSED*", "*::test_slow PASSED*", "*::test_with_a_router PASSED*"])
+    live = pytester.runpytest_inprocess("-p", "tests.fast_tier", fast_tier.LIVE, "-v")
+    live.assert_outcomes(passed=2, deselected=2)
+    live.stdout.fnmatch_lines(["*::test_live PASSED*", "*::test_with_a_router PASSED*"])
+    slow = pytester.runpytest_inprocess("-p", "tests.fast_tier", fast_tier.SLOW, "-v")
+    slow.assert_outcomes(passed=1, deselected=3)
+    slow.stdout.fnmatch_lines(["*::test_slow PASSED*"])
     everything = pytester.runpytest_inprocess("-p", "tests.fast_tier")
     everything.assert_outcomes(passed=4)
     both = pytester.runpytest_inprocess(*TIER, fast_tier.REST)
-    both.stderr.fnmatch_lines(["*--fast-tier and --rest-of-tiers are the two halves of the tests: ask for one*"])
+    both.stderr.fnmatch_lines(["*--fast-tier and --rest-of-tiers: the tiers do not overlap, ask for one*"])
+
+
+def test_the_slow_tier_fails_a_test_that_starts_a_process_but_not_one_that_computes(pytester, monkeypatch):
+    """The slow tier runs beside the live tests at the lowest priority: a process started there would be starved,
+    so it fails, saying to mark it live; CPU is what the tier is for."""
+    monkeypatch.setattr(fast_tier, "CEILING_S", 0.05)
+    pytester.makepyfile(f"""
+        import time, pytest
+        @pytest.mark.slow
+        def test_starts():
+            {DOOR_CALLS["subprocess"]}
+        @pytest.mark.slow
+        def test_computes():
+            started = time.process_time()
+            while time.process_time() - started < 0.1:
+                pass
+    """)
+    result = pytester.runpytest_inprocess("-p", "tests.fast_tier", fast_tier.SLOW)
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines(["*test_starts is in the slow tier*but started a process*mark it live*"])
 
 
 def test_the_tier_gives_every_door_back_when_it_ends(pytester):

@@ -56,7 +56,7 @@ def test_an_inbox_without_a_budget_is_refused():
         Inbox(max_bytes=0)
 
 
-@pytest.mark.slow
+@pytest.mark.live  # judges wall time: at the machine's priority, never in the slow tier's lowest
 def test_a_wait_ends_at_its_timeout_while_signals_interrupt_it():
     """CPython 3.11's SimpleQueue.get(timeout) waits until the next put once a signal lands past its
     deadline: a quiet service then never saw its SIGTERM (with SimpleQueue here the longest wait ran
