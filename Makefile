@@ -30,7 +30,7 @@ chromium:
 
 # every test in three tiers: the live ones (processes that mostly wait on real time, judged on it) at the machine's
 # priority, and beside them at the lowest, make check's fast tier then the slow one (CPU alone: no process, no
-# session; about 4 minutes of a 2-core CI's 28 run one after the other), which take what the live ones leave of
+# session; 4 minutes of a 2-core CI's 25, run one after the other), which take what the live ones leave of
 # the cores and never what they need. Their report follows the live one's; all must pass
 BESIDE_LOG := .beside-tiers.log
 test: $(STAMP) chromium

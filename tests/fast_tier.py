@@ -80,9 +80,10 @@ def pytest_collection_modifyitems(config, items):
     tiers = [_tier(item) for item in items]
     config.hook.pytest_deselected(items=[item for item, tier in zip(items, tiers) if tier not in wanted])
     items[:] = [item for item, tier in zip(items, tiers) if tier in wanted]
-    if asked[0] in (FLAG, SLOW):
-        _Guard(config, "make check's fast tier" if asked[0] == FLAG else "the slow tier (no process: it runs beside "
-               "the live tests, at the lowest priority)", CEILING_S if asked[0] == FLAG else None)
+    guarded = {FLAG: ("make check's fast tier", CEILING_S),
+               SLOW: ("the slow tier (no process: it runs beside the live tests, at the lowest priority)", None)}
+    if asked[0] in guarded:
+        _Guard(config, *guarded[asked[0]])
 
 
 def _tier(item) -> str:
@@ -138,5 +139,5 @@ class _Guard:
             report.outcome, report.longrepr = "failed", self._started(item.nodeid, doors)
         elif self.ceiling_s is not None and cpu > self.ceiling_s:
             report.outcome = "failed"
-            report.longrepr = (f"{item.nodeid} is in make check's fast tier but used {cpu:.1f} s of CPU (setup and "
+            report.longrepr = (f"{item.nodeid} is in {self.tier} but used {cpu:.1f} s of CPU (setup and "
                                f"call), over its {self.ceiling_s:g} s: {_advice('slow')}")

@@ -18,6 +18,7 @@ from functools import partial
 import numpy as np
 
 from services.placement import to_background
+from services.waiting import poll
 
 from .gp_evidence import Hyper
 from .gp_factor import Built, Shape, extend, fit_and_build, shape_of
@@ -112,24 +113,17 @@ def stop_fitting(grace_s: float = 1.0) -> None:
     workers = multiprocessing.active_children()  # the pools' processes: spawned by this one
     for worker in workers:
         worker.terminate()
-    if not _ended(workers, grace_s):
+    # polled, not joined once: the pool's own thread reaps an ended worker too, and until it records that, a join
+    # here finds no child left to wait for and takes the worker for running (CI, under load: a fitting process still
+    # listed after stop_upkeep, though it had ended, tests/test_gp_fitting_stop.py); one that did not end is killed
+    # and reaped, never left a zombie
+    def ended():
+        return not any(worker.is_alive() for worker in workers)
+    if not poll(ended, grace_s, 0.01):
         for worker in workers:
             if worker.is_alive():
                 worker.kill()
-        _ended(workers, grace_s)
-
-
-def _ended(workers: list, within_s: float) -> bool:
-    """Whether every worker is found ended within `within_s`: polled, not joined once. The pool's own thread reaps
-    an ended worker too, and until it records that, a join here finds no child left to wait for and takes the
-    worker for running (CI, under load: a fitting process still listed after stop_upkeep, though it had ended,
-    tests/test_gp_fitting_stop.py). A worker that did not end is reaped when killed: never left a zombie."""
-    deadline = time.monotonic() + within_s
-    while any(worker.is_alive() for worker in workers):
-        if time.monotonic() >= deadline:
-            return False
-        time.sleep(0.01)
-    return True
+        poll(ended, grace_s, 0.01)
 
 
 class Refitting:
