@@ -12,7 +12,8 @@ from services.own_identities import HOME_ENV
 from tests.fast_tier import pytest_addoption, pytest_collection_modifyitems, pytest_configure  # noqa: F401  (hooks)
 
 COMPILE_EVERY_LEARNER = ("import services; from services.learners import LEARNERS, compile_kernels, make_learner; "
-                         "[compile_kernels(make_learner(name, 2, 1)) for name in LEARNERS]")
+                         "[compile_kernels(make_learner(name, 2, 1)) for name in LEARNERS]; "
+                         "import matplotlib.font_manager")  # its font cache: built cold, it runs fc-list
 
 
 def pytest_sessionstart(session):
@@ -20,7 +21,8 @@ def pytest_sessionstart(session):
     session's, never the person's own; and every learner's kernels compiled into numba's cache once, in
     one process, before any test: processes that each compile them cold can round differently (a replay
     then differed from the live learner by up to 3e-9), while processes that load the same cache agree
-    bit for bit."""
+    bit for bit. The same process builds matplotlib's font cache, which it makes with fc-list (a process,
+    which the fast tier refuses) the first time a figure is drawn on a machine."""
     own = Path(tempfile.mkdtemp(prefix="dogged-home-"))  # 0700, made by mkdtemp
     os.environ[HOME_ENV] = str(own)
     subprocess.run([sys.executable, "-c", COMPILE_EVERY_LEARNER], cwd=REPO, check=True, capture_output=True)
