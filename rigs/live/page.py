@@ -59,6 +59,47 @@ class KeyboardPerson:
         self.held = set(keys)
 
 
+# the Gamepad API as a pad plugged in shows it, for a page in headless chromium (which has no pads): one pad
+# whose axes the person sets (axis 0: stick right positive; axis 1: stick down positive)
+PAD_PLUGGED = """() => { window.doggedPad = {id: 'scripted stick', axes: [0.0, 0.0]};
+    Object.defineProperty(navigator, 'getGamepads', {configurable: true, value: () => [window.doggedPad]}); }"""
+
+
+class StickPerson:
+    """A scripted person at the page who knows ball seeking and drives with a gamepad stick: each tick it holds
+    the stick where the ball-seeking teacher's answer is (up for forward, left for a left turn), as finely as a
+    stick says it (steps of 1/127 of its throw), and the page's dead zone leaves a small push unsaid, as it does
+    a person's. A person taught as the program teaches, by degrees; KeyboardPerson's keys are whole turns."""
+
+    STEPS = 127
+
+    def __init__(self, page, spaces):
+        self.page, self.held = page, False
+        self.policy = make_teacher("ballseek", spaces)
+        low, high = (np.asarray(b, dtype=np.float64) for b in (spaces.output.low, spaces.output.high))
+        self.mid, self.half = (low + high) / 2, (high - low) / 2
+        page.evaluate(PAD_PLUGGED)
+
+    def axes_for(self, x: np.ndarray) -> list[float]:
+        """The pad's axes for the teacher's answer on x: centred where it has none."""
+        y, _ = self.policy(x)
+        if y is None:
+            return [0.0, 0.0]
+        forward, turn = np.round(np.clip((np.asarray(y) - self.mid) / self.half, -1, 1) * self.STEPS) / self.STEPS
+        return [float(-turn), float(-forward)]
+
+    def drive(self, x, now: float) -> None:
+        if x is not None:
+            self.hold(self.axes_for(x))
+
+    def hold(self, axes: list[float]) -> None:
+        self.page.evaluate("(axes) => { window.doggedPad.axes = axes; }", axes)
+        self.held = any(a != 0.0 for a in axes)
+
+    def release(self) -> None:
+        self.hold([0.0, 0.0])
+
+
 class PageStage(LiveStage):
     """The ball-seeking protocol's stage where teaching is the person at the page driving with keys
     (LiveStage's teacher switch is never used): while teaching, every tick the person presses what the

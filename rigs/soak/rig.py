@@ -23,7 +23,7 @@ import numpy as np
 
 # the test rigs this soak drives (moving out of the product: re-point these imports there)
 from services.demo.live import REPO, LiveRun, when_ready
-from rigs.live.page import KeyboardPerson
+from rigs.live.page import StickPerson
 from rigs.netlab.lab import Lab, available
 
 from rigs.soak.watch import Judge
@@ -123,24 +123,6 @@ class RandomKeys:
         self.held = set()
 
 
-class SeekingPerson:
-    """A person at the ball-seeking page who presses what the ball-seeking teacher would (KeyboardPerson)."""
-
-    def __init__(self, page, spaces: Spaces):
-        self.keys = KeyboardPerson(page, spaces)
-
-    @property
-    def held(self) -> set:
-        return self.keys.held
-
-    def drive(self, x, now: float) -> None:
-        if x is not None:
-            self.keys.press(self.keys.keys_for(x))
-
-    def release(self) -> None:
-        self.keys.press(set())
-
-
 class Rig:
     """`up()` brings everything up; `stop_profile()` stops the profile (the recorder finishes its files);
     `close()` takes down what is left (the page, the other host, the small disk)."""
@@ -206,7 +188,7 @@ class Rig:
             return
         self.page = self.stack.enter_context(open_page(page_address(self.ui_port, wait_s=30)))
         self.page.wait_for_selector("#ears[data-mode]", timeout=60_000)
-        self.person = SeekingPerson(self.page, self.spaces) if self.name == "ballseek" else RandomKeys(self.page)
+        self.person = StickPerson(self.page, self.spaces) if self.name == "ballseek" else RandomKeys(self.page)
 
     # --- what the day asks ------------------------------------------------------------------------
     @property

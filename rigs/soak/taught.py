@@ -3,10 +3,12 @@ the run recorded (in the order learned), judged on the inputs of the last span a
 (the teacher's program on each input, the same outputs and scale).
 
 The student is judged against the program, but a soak's teaching is not only the program's: the person at the
-page presses keys, whole turns and steps where the program turns by degrees, and a student taught them answers
-them. The live student's last error beside this one tells what the day itself cost it (kills, swaps, restarts,
+page teaches too (in ball seeking with a stick, as finely as it says and nothing inside its dead zone; a person
+pressing keys would teach whole turns where the program turns by degrees), and a student answers what it was
+taught. The live student's last error beside this one tells what the day itself cost it (kills, swaps, restarts,
 lost pairs), apart from what it was taught; and the same learner trained only on the program's teachers' pairs
-(the person's left out), what the person's keys cost it: whether more of the program's teaching ever made it worse."""
+(the person's left out), what the person's teaching cost it: whether more of the program's teaching ever made it
+worse."""
 from __future__ import annotations
 
 import numpy as np
