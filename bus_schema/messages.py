@@ -37,19 +37,25 @@ class Proposal:
     """A teacher's or learner's answer to one input; y is None when a teacher has nothing to say.
     mask (0/1 per output, or None for all) marks the outputs a partial teacher speaks for. learned: how
     many training pairs a learner had learned when it answered (-1 from a teacher), so a recorded run's
-    predictions can be reproduced (`dogged replay`)."""
+    predictions can be reproduced (`dogged replay`); backlog: how many more it had taken in and not yet
+    learned (it answers those ticks unsure, whatever its model says)."""
     FIELDS = (("tick", INT), ("source", STR), ("y", OPT_VECTOR), ("confidence", FLOAT), ("mask", OPT_VECTOR),
-              ("learned", INT))
-    DEFAULTS = {"learned": -1}
+              ("learned", INT), ("backlog", INT))
+    DEFAULTS = {"learned": -1, "backlog": 0}
     tick: int
     source: str
     y: np.ndarray | None
     confidence: float
     mask: np.ndarray | None = None
     learned: int = -1
+    backlog: int = 0
 
     def check(self, key: str) -> None:
         _check_confidence(key, self.confidence)
+        if self.learned < -1:
+            raise SchemaError(key, "learned", f"{self.learned} pairs learned: -1 (a teacher) or a count")
+        if self.backlog < 0:
+            raise SchemaError(key, "backlog", f"{self.backlog} pairs yet to be learned: a count, at least 0")
         _check_name(key, "source", self.source, slashes=1)
         if self.mask is not None:
             if self.y is None or self.mask.shape != self.y.shape:

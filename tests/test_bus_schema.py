@@ -97,3 +97,13 @@ def test_reward_and_episode_round_trip_and_refuse_what_cannot_be():
     for message, words in bad:
         with pytest.raises(SchemaError, match=words):
             decode(type(message), encode(message), "dl/a/x")
+
+
+def test_a_learners_backlog_is_a_count_and_absent_means_none():
+    sent = decode(Proposal, encode(Proposal(1, "learner/l", np.zeros(2), 0.0, learned=40, backlog=7)), "k", {"y": 2})
+    assert (sent.learned, sent.backlog) == (40, 7)
+    older = msgpack.packb({"v": 1, "tick": 1, "source": "learner/l", "y": None, "confidence": 0.5, "mask": None})
+    assert (decode(Proposal, older, "k").learned, decode(Proposal, older, "k").backlog) == (-1, 0)
+    for field, value in (("backlog", -1), ("learned", -2)):
+        with pytest.raises(SchemaError, match=field):
+            decode(Proposal, encode(Proposal(1, "learner/l", np.zeros(2), 0.0, **{field: value})), "k", {"y": 2})

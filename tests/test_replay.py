@@ -11,7 +11,7 @@ from rigs.harness import REPO
 from rigs.recorded import write_point_run
 from services.platforms.point import PointPlatform
 from services.recording.runs import load_run
-from services.replay.replay import replay, schedule
+from services.replay.replay import as_served, catching_up, replay, schedule
 from services.teachers import make_teacher
 
 TICKS, TAUGHT = 600, 300  # 20 s at 30 Hz, the first half taught
@@ -86,3 +86,18 @@ def test_an_answer_whose_input_was_not_recorded_is_left_out(run):
     inputs, answers = recorded.answered("l")
     assert len(answers) == TICKS - 1 and 99 not in answers
     assert np.array_equal(recorded.ticks[inputs], recorded.live["l"].ticks[answers])
+
+
+def test_ticks_the_live_learner_answered_while_catching_up_are_answered_unsure(tmp_path):
+    point = PointPlatform(dims=2, seed=3)
+    teacher = make_teacher("sine", point.spaces)
+    folder = write_point_run(tmp_path, point, 60, lambda tick, x: (teacher(x)[0], None),
+                             backlog=lambda tick: 3 if 20 <= tick < 23 else 0)
+    recorded = load_run(folder)
+    unsure = catching_up(recorded, "l")
+    assert np.flatnonzero(unsure).tolist() == [19, 20, 21] and not catching_up(recorded, None).any()
+    result = replay(recorded, "knn", plan=schedule(recorded, "l"))
+    served = as_served(result, unsure)
+    assert (served.confidence[unsure] == 0).all() and (result.confidence[unsure] > 0).all()
+    assert np.array_equal(served.confidence[~unsure], result.confidence[~unsure])
+    assert np.array_equal(served.y, result.y)

@@ -220,7 +220,8 @@ class LearnerNode(Warming):
         if not np.array_equal(y, p.y):
             self.counts["clipped"] += 1  # the learner's own bound is its taught range; the robot's is this
         confidence = 0.0 if self.backlog else float(p.confidence)  # not yet all it was taught: unsure
-        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, confidence, learned=self.model.n_learned)))
+        self.pub.put(encode(Proposal(msg.tick, f"learner/{self.name}", y, confidence, learned=self.model.n_learned,
+                                     backlog=len(self.backlog))))
         self.counts["proposals"] += 1
 
     def on_query(self, query: zenoh.Query):

@@ -15,12 +15,14 @@ from services.recording.restarts import PlatformRuns
 
 @dataclass
 class LiveAnswers:
-    """A live learner's recorded proposals: per (platform run, tick) its output, confidence and pairs learned."""
+    """A live learner's recorded proposals: per (platform run, tick) its output, confidence, pairs learned and
+    pairs taken in but not yet learned (it answered those ticks unsure)."""
     ticks: np.ndarray
     runs: np.ndarray
     y: np.ndarray
     confidence: np.ndarray
     learned: np.ndarray
+    backlog: np.ndarray
 
 
 @dataclass
@@ -148,4 +150,5 @@ def _answers(proposals: list) -> LiveAnswers:
     answers = [by_position[k] for k in order]
     return LiveAnswers(np.array([tick for _, tick in order], dtype=np.int64),
                        np.array([at for at, _ in order], dtype=np.int64), np.array([p.y for p in answers]),
-                       np.array([p.confidence for p in answers]), np.array([p.learned for p in answers]))
+                       np.array([p.confidence for p in answers]), np.array([p.learned for p in answers]),
+                       np.array([p.backlog for p in answers], dtype=np.int64))

@@ -13,7 +13,7 @@ import numpy as np
 from services.params import parse_params
 from services.recording.runs import RecordedRun, load_run
 from services.replay.compare import Figures, figures, plot, reference, table
-from services.replay.replay import Replayed, learner_from_spec, schedule
+from services.replay.replay import Replayed, as_served, catching_up, learner_from_spec, schedule
 from services.replay.side_by_side import replay_any
 
 
@@ -30,15 +30,15 @@ def live_rows(run: RecordedRun) -> list[Replayed]:
 
 def compare(run: RecordedRun, specs: list[str], seed: int = 0, teacher=None, threshold: float = 0.1,
             quasi_batch: bool = False, live: str | None = None, progress: bool = False) -> list[Figures]:
-    """Every spec replayed (answering on the live learner `live`'s schedule, else the default one) and its
-    figures, after the live learners' own."""
+    """Every spec replayed (answering on the live learner `live`'s schedule, unsure where it answered so while it
+    caught up, else the default one) and its figures, after the live learners' own."""
     from tqdm import tqdm
-    plan = schedule(run, live)
+    plan, unsure = schedule(run, live), catching_up(run, live)
     ref = reference(run, teacher)
     rows = [figures(run, r, ref, threshold) for r in live_rows(run)]
     with tqdm(total=len(specs) * len(run.ticks), unit="input", disable=not progress, file=sys.stderr) as bar:
         for spec in specs:
-            result = replay_any(run, spec, seed, plan, quasi_batch, bar.update)
+            result = as_served(replay_any(run, spec, seed, plan, quasi_batch, bar.update), unsure)
             rows.append(figures(run, result, ref, threshold))
     return rows
 

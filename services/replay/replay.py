@@ -4,12 +4,14 @@ real time).
 
 Each input is answered after the pairs the live learner had learned when it answered that tick (its
 proposals say how many), or, where no live learner answered, after the pairs of earlier ticks; so the
-live learner's own class, parameters and seed reproduce its recorded answers.
+live learner's own class, parameters and seed reproduce its recorded answers; and the ticks it answered while
+it had pairs taken in and not yet learned, which the learner service answers unsure whatever its model says
+(services/boxes/learner.py), are answered so (`catching_up`, `as_served`).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -51,6 +53,21 @@ def schedule(run: RecordedRun, live: str | None = None) -> np.ndarray:
             first = known[last[last >= 0][0]]
             counts = np.where(last >= 0, known[last.clip(0)], np.minimum(counts, first))
     return np.maximum.accumulate(counts)
+
+
+def catching_up(run: RecordedRun, live: str | None) -> np.ndarray:
+    """Per recorded input, whether live learner `live` answered it with pairs taken in and not yet learned (its
+    proposals say how many): the service answers those unsure. False where it did not answer, or none is given."""
+    unsure = np.zeros(len(run.ticks), dtype=bool)
+    if live in run.live:
+        inputs, answers = run.answered(live)
+        unsure[inputs] = run.live[live].backlog[answers] > 0
+    return unsure
+
+
+def as_served(result: Replayed, unsure: np.ndarray) -> Replayed:
+    """`result` as the learner service would have answered: unsure (confidence 0) on the inputs `unsure` marks."""
+    return replace(result, confidence=np.where(unsure, 0.0, result.confidence))
 
 
 def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None = None,
