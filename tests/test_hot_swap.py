@@ -1,5 +1,7 @@
 """Hot-swap learners during a 200 Hz run: no tick unanswered, no training pair lost (counted)."""
 import json
+import os
+import signal
 
 import pytest
 
@@ -9,7 +11,9 @@ from tests.test_supervisor import ps, wait
 
 pytestmark = pytest.mark.live
 
-TICKS = 6000  # 30 s at 200 Hz
+# at most 100 s at 200 Hz: the loop is stopped once the swaps are done (a slower machine's swaps outlasted a run
+# of 30 s, and the third was asked of a loop that had ended)
+TICKS = 20_000
 
 PROFILE = """
 [profile]
@@ -48,19 +52,23 @@ def test_swap_learners_during_200hz_run(tmp_path):
         assert again.returncode == 0, again.stdout + again.stderr
         assert "restored from the old one's snapshot" in again.stdout, again.stdout
         assert set(ps(endpoint)) == {"router", "recorder", "platform", "teacher", "learner-s3", "arbitrator"}
-        wait(lambda: summary.exists(), 60, "the platform to finish its ticks")
+        assert not summary.exists(), "every swap was made while the loop ran"
+        os.kill(ps(endpoint)["platform"]["pid"], signal.SIGTERM)  # the loop stops; its counts are final
+        wait(lambda: summary.exists(), 30, "the platform's summary")
         probe.wait_for_fresh_status("arbitrator/arbitrator")  # its final counters
         published = probe.state("arbitrator/arbitrator", "seq")
         serving = "learner/learner-s3"
         poll(lambda: probe.counter(serving, "pairs") >= published, 15)  # (if never, the asserts below say so)
         counts = json.loads(summary.read_text())
-        assert counts["ticks"] == TICKS
+        assert 0 < counts["ticks"] < TICKS
         print(f"unanswered ticks before the loop was up (tick {loop_up_tick}): {counts['unanswered']}, "
               f"the last of them {counts['last_unanswered'][-5:]}")
-        # the latest unanswered ticks: past 1,000 start-up misses, the first 1,000 alone would hide a later one
-        assert max(counts["last_unanswered"], default=0) < loop_up_tick, counts
+        # the latest unanswered ticks: past 1,000 start-up misses, the first 1,000 alone would hide a later one; but
+        # for the tick the stop signal cut off, in flight as the platform stopped
+        late = [t for t in counts["last_unanswered"] if t >= loop_up_tick]
+        assert late in ([], [counts["ticks"]]), counts
         assert probe.counter("arbitrator/arbitrator", "swaps") == 3
-        assert published == probe.counter("arbitrator/arbitrator", "train_pairs") > 0.9 * TICKS
+        assert published == probe.counter("arbitrator/arbitrator", "train_pairs") > 0.9 * counts["ticks"]
         asked = "learner/learner-s2"  # k=3 asked of a k=5 knn: built as asked, taught the history
         assert probe.state(asked, "params")["k"] == 3, probe.state(asked, "params")
         assert probe.counter(asked, "warmed_by_snapshot", 0) == 0
@@ -69,7 +77,7 @@ def test_swap_learners_during_200hz_run(tmp_path):
         assert probe.counter(serving, "seq") == published
         assert probe.counter(serving, "pairs") == published, "every pair reaches the serving learner"
         assert probe.counter(serving, "pairs_lost") == 0
-        print(f"{TICKS} ticks all answered; {published} pairs, all in {serving}; "
+        print(f"{counts['ticks']} ticks all answered; {published} pairs, all in {serving}; "
               f"gap-filled {probe.counter(serving, 'gap_filled')}, duplicates {probe.counter(serving, 'duplicates')}")
     finally:
         probe.close()

@@ -24,13 +24,15 @@ def test_make_test_is_ruff_and_the_whole_suite_in_its_three_tiers_side_by_side_a
     lines = recipe("test")
     assert lines[0] == "$(VENV)/bin/ruff check ."
     suite = " ".join(line.removesuffix("\\").strip() for line in lines[1:])  # (a shell line continued)
-    beside = f"(nice -n 19 $(VENV)/bin/pytest -q -rs -p no:cacheprovider {fast_tier.FLAG}; fast=$$?; " \
-             f"nice -n 19 $(VENV)/bin/pytest -q -rs -p no:cacheprovider --durations=10 {fast_tier.SLOW} && exit $$fast)"
+    beside = f"($(BESIDE) $(VENV)/bin/pytest -q -rs -p no:cacheprovider {fast_tier.FLAG}; fast=$$?; " \
+             f"$(BESIDE) $(VENV)/bin/pytest -q -rs -p no:cacheprovider --durations=10 {fast_tier.SLOW} && exit $$fast)"
     assert suite.startswith(f"@{beside} > $(BESIDE_LOG) 2>&1 & beside=$$!;")
     # (the live tier's 30 slowest tests printed: where CI's minutes go)
     assert f"$(VENV)/bin/pytest -q -rs --durations=30 {fast_tier.LIVE}; live=$$?;" in suite
     assert suite.endswith("[ $$live = 0 ] && [ $$tiers = 0 ]")  # every tier must pass
     assert (REPO / ".ci" / "run").read_text().rstrip().endswith("\nmake test")
+    # beside the live tier at the lowest priority, on CPU 0 alone where there are more (the tick paths' are above)
+    assert re.search(r"^BESIDE := nice -n 19 \$\(shell .*taskset -c 0\)$", (REPO / "Makefile").read_text(), re.M)
 
 
 def test_make_demo_runs_the_demo():
