@@ -244,7 +244,7 @@ def broken(tmp_path_factory, recorded) -> dict:
     (["{rewardless}", "--lerobot", "{tmp}/ds", "--episode-by", "arena"], "no arena reset recorded"),
     (["{run}", "--student", "{tmp}/s", "--learner", "nonsense"], "no learner 'nonsense'; learners: gp"),
     (["{run}", "--student", "{tmp}/s", "--live", "nobody"], "no live learner 'nobody'"),
-    (["{ticksless}", "--student", "{tmp}/s"], "no inputs of instance 'main'"),
+    (["{ticksless}", "--student", "{tmp}/s"], "the spaces of instance 'main' but none of its inputs recorded"),
     (["{commandless}", "--student", "{tmp}/s", "--learner", "lwpr"], "no training pairs recorded"),
     (["{run}"], "nothing to do"),
 ])

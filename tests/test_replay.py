@@ -101,3 +101,19 @@ def test_ticks_the_live_learner_answered_while_catching_up_are_answered_unsure(t
     assert (served.confidence[unsure] == 0).all() and (result.confidence[unsure] > 0).all()
     assert np.array_equal(served.confidence[~unsure], result.confidence[~unsure])
     assert np.array_equal(served.y, result.y)
+
+
+def test_a_file_with_the_spaces_and_no_inputs_replays_as_nothing_to_replay(tmp_path, capsys):
+    """(a rotation that began as the platform stopped: its last frames and statuses, no input; the soak's quick run
+    found one, which `dogged replay` refused)"""
+    from bus_schema import Status, encode
+    from services.recording.writer import RunWriter
+    from services.replay.cli import replay_main
+    writer = RunWriter(tmp_path, "recorder", 10**9, 3600.0)
+    writer.add_metadata("spaces dl/main", {"spaces": json.dumps(PointPlatform(dims=2).spaces.to_dict())})
+    writer.write("dl/main/status/recorder/recorder", Status, encode(Status("recorder", "recorder", 1, {}, {})), 1, 1)
+    writer.close()
+    assert replay_main([str(tmp_path), "--learner", "knn"]) == 0
+    assert "none of its inputs recorded: nothing to replay" in capsys.readouterr().out
+    assert replay_main([str(tmp_path), "--instance", "other"]) == 2  # another instance's: still a clear error
+    assert "no spaces of instance 'other'" in capsys.readouterr().err

@@ -79,6 +79,11 @@ class RecordedRun:
         return out
 
 
+class NoInputs(ValueError):
+    """A recording that holds the instance's spaces but none of its inputs: a file a rotation began as the platform
+    stopped (its last frames and statuses), say. It reads; there is nothing in it to replay."""
+
+
 def load_run(run: str | Path, instance: str = "main") -> RecordedRun:
     keys = InstanceKeys(instance)
     spaces_dict = spaces_in(read_metadata(run), instance)
@@ -88,7 +93,7 @@ def load_run(run: str | Path, instance: str = "main") -> RecordedRun:
     truncated: list = []
     inputs, others, runs, rejected = _read(run, keys, truncated)
     if not inputs:
-        raise ValueError(f"{run}: no inputs of instance {instance!r} recorded")
+        raise NoInputs(f"{run}: the spaces of instance {instance!r} but none of its inputs recorded")
     modes, ordered, live = _placed(others, runs, keys)
     stamps = np.array([msg.stamp for _, msg in inputs])
     n_out = spaces.output.dims

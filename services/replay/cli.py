@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from services.params import parse_params
-from services.recording.runs import RecordedRun, load_run
+from services.recording.runs import NoInputs, RecordedRun, load_run
 from services.replay.compare import Figures, figures, plot, reference, table
 from services.replay.replay import Replayed, as_served, catching_up, learner_from_spec, schedule
 from services.replay.side_by_side import replay_any
@@ -70,6 +70,9 @@ def replay_main(argv: list[str]) -> int:
         if args.teacher:
             from services.teachers import make_teacher
             teacher = make_teacher(args.teacher, run.spaces, **parse_params(args.teacher_param))
+    except NoInputs as err:  # read, and found empty: no learner has anything to answer
+        print(f"{err}: nothing to replay")
+        return 0
     except (OSError, ValueError, KeyError) as err:
         print(f"dogged replay: {err}", file=sys.stderr)
         return 2
