@@ -6,7 +6,9 @@ under the supervisor), with what the day needs around it:
 - a second teacher on another host: a network namespace (rigs/netlab) whose cable can be cut, joined to
   the profile's router over TLS with this user's teacher identity (needs root: without it, both lessons are
   the teacher here's, and the run says so);
-- the page open in headless chromium the whole run, where a person drives now and then.
+- the page open in headless chromium the whole run, where a person drives now and then: at mirroring's, arrow
+  keys on two leg joints the student is not judged on; at ball seeking's, a gamepad stick held where the
+  program's answer is (rigs/live/page.StickPerson).
 """
 from __future__ import annotations
 
