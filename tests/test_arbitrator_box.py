@@ -4,7 +4,7 @@ for, the learner fallback, partial teachers' masks, clipping; and the in-process
 import numpy as np
 import zenoh
 
-from bus_schema import Command, InstanceKeys, Input, Proposal, TrainingPair, decode, encode
+from bus_schema import Command, InstanceKeys, Input, Proposal, SelectLearner, TrainingPair, decode, encode
 from bus_schema.spaces import Box, Spaces
 from services.arbitration.strategies import TeacherFirst
 from services.boxes.arbitrator import MISSES_BEFORE_IGNORED, Arbitrator
@@ -138,3 +138,14 @@ def test_commands_and_pairs_are_clipped_to_the_output_space_and_the_in_process_l
     decision, _, _ = in_process_tick(x, [("teacher/wild", wild)], student, output_space=SPACES.output)
     assert (decision.y.tolist(), decision.mode, decision.source) == (command.y.tolist(), command.mode, command.source)
     assert student.n_learned == 1 and np.allclose(student.predict_one(x).y, pair.y)
+
+
+def test_a_selection_said_again_until_confirmed_is_one_swap():
+    """(`dogged swap` says the selection again until the arbitrator's status confirms it: a put can be lost)"""
+    b = Bench()
+    b.alive("learner", "old")
+    b.alive("learner", "new")
+    assert b.arb.active_learner() == "old"
+    for _ in range(3):
+        b.arb.on_select(KEYS.select_learner, encode(SelectLearner("new")), b.now)
+    assert b.arb.active_learner() == "new" and b.arb.counts["swaps"] == 1

@@ -138,10 +138,11 @@ class Arbitrator:
 
     def on_select(self, key, raw, now):
         msg = decode_or_reject(SelectLearner, raw, key, self.rejects)
-        if msg is not None:
+        if msg is not None and msg.learner != self.selected:  # (a swap says it again until confirmed)
             self.log.info("learner %s serves from now on (was %s)", msg.learner, self.active_learner())
             self.selected = msg.learner
             self.counts["swaps"] += 1
+            self.box.status.publish_soon()  # the swap waits for this status: now, not in a second
 
     def on_recent_query(self, query: zenoh.Query):
         """Gap filling: the training pairs of this epoch with seq in [from, to] still in memory."""

@@ -75,14 +75,29 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
         return ControlReply(False, f"{new_name} does not serve: {behind}; {old.spec.name} still serves "
                                    f"(see dogged logs {new_name})", {})
     warm_s = time.monotonic() - started
-    select_learner(session, spec.instance, new_name)
-    if not sup.pump(session, lambda: sup.reports("arbitrator", "learner", new_name), 10.0):
-        return ControlReply(False, f"the arbitrator did not confirm {new_name}; both learners keep running", {})
+    if not _select(sup, session, spec.instance, new_name):
+        return ControlReply(False, f"the arbitrator did not confirm {new_name} in {SELECT_TRIES * SELECT_WAIT_S:g} s; "
+                                   "both learners keep running", {})
     sup.retire(old.spec.name)
     sup.pump(session, lambda: "warmed" in sup.status_of(spec).get("counters", {}), 3.0)
     return ControlReply(True, f"{new_name} ({spec_text}) serves in place of {old.spec.name}, "
                               f"{_how_warmed(sup.status_of(spec))} in {warm_s:.1f} s",
                         {"new": new_name, "old": old.spec.name})
+
+
+# the selection is said again until the arbitrator's status confirms it: a put can be lost (a fresh clone's CI, the
+# fast and slow tiers beside: "the arbitrator did not confirm learner-s1" after one put and 10 s)
+SELECT_TRIES, SELECT_WAIT_S = 4, 5.0
+
+
+def _select(sup, session, instance: str, new_name: str) -> bool:
+    for _ in range(SELECT_TRIES):
+        select_learner(session, instance, new_name)
+        if sup.pump(session, lambda: sup.reports("arbitrator", "learner", new_name), SELECT_WAIT_S):
+            return True
+        if sup.stopping:
+            return False
+    return False
 
 
 # a new learner learns the old one's history between answers (services.boxes.learner): the swap selects it once
