@@ -160,7 +160,12 @@ def test_answers_as_recorded_to_the_last_bit(case, recorded, cpu_differs):
             np.testing.assert_array_equal(value, recorded[key], err_msg=key, strict=True)
 
 
-def test_a_snapshot_of_the_flat_array_model_still_loads_answers_and_learns_as_recorded(recorded):
+# a restored model on a CPU whose canary matches, where a fresh one answers to the bit: on an AVX-512 machine of
+# another generation (2026-12-02) 4 of the snapshot's 17 confidences differed by up to 6.6e-15 relative
+RESTORED_RTOL = 1e-12
+
+
+def test_a_snapshot_of_the_flat_array_model_still_loads_answers_and_learns_as_recorded(recorded, cpu_differs):
     name, n_in, n_out, _, batch, turns = next(case for case in CASES if case[0] == SNAPSHOT_CASE)
     seed = sum(map(ord, name))
     xs, ys = stream(n_in, n_out, batch + 2 * turns, seed)
@@ -169,7 +174,12 @@ def test_a_snapshot_of_the_flat_array_model_still_loads_answers_and_learns_as_re
     answered |= take_turns(model, xs[batch:batch + turns], ys[batch:batch + turns])
     answered |= answers("turns", model, probes(n_in, seed))
     for key, value in answered.items():
-        np.testing.assert_array_equal(value, recorded[f"{name}/{key}"], err_msg=key, strict=True)
+        expected = recorded[f"{name}/{key}"]
+        if same(value, expected):
+            continue
+        assert value.dtype == expected.dtype and value.shape == expected.shape, key
+        np.testing.assert_allclose(value, expected, rtol=OTHER_CPU_RTOL if cpu_differs else RESTORED_RTOL,
+                                   atol=OTHER_CPU_ATOL if cpu_differs else 0.0, err_msg=f"{key} ({cpu_differs})")
 
 
 if __name__ == "__main__":

@@ -59,9 +59,10 @@ def kernel_shapes(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def factor_and_invert(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The lower Cholesky factor of a Fortran-ordered gram (factored in place) and the gram's inverse; None
-    when it is not positive definite. LAPACK directly: to the bit what numpy's cholesky and scipy's
-    solve_triangular give, without their copies between memory orders (8 % of an evaluation at 256 samples;
-    BLAS's triangular product in place of the last one is 30 % faster, but not to the bit)."""
+    when it is not positive definite. LAPACK directly: to the bit what scipy's cholesky and solve_triangular
+    give (numpy's cholesky, on an OpenBLAS of its own, within rounding), without their copies between memory
+    orders (8 % of an evaluation at 256 samples; BLAS's triangular product in place of the last one is 30 %
+    faster, but not to the bit)."""
     chol, failed = dpotrf(gram, lower=1, clean=0, overwrite_a=1)
     if failed:
         return None
