@@ -251,14 +251,18 @@ document.querySelectorAll(".pad .arrow").forEach((b) => {
     b.addEventListener(ev, () => { if (held.delete(b.dataset.key)) teleop(); });
 });
 
+const PAD_DEAD_ZONE = 0.15;  // of a stick's throw: a worn stick at rest reads up to about a tenth
 function pollGamepad() {
   const pads = navigator.getGamepads ? Array.from(navigator.getGamepads()).filter(Boolean) : [];
   const pad = pads[0];
   let next = null;
   if (pad) {
-    const dz = (v) => (Math.abs(v) > 0.15 ? Math.max(-1, Math.min(1, v)) : null);
-    next = [dz(-pad.axes[1] || 0), dz(-pad.axes[0] || 0)];  // stick up: forward; stick left: turn left
-    if (next.every((v) => v === null)) next = null;
+    const stick = [-pad.axes[1] || 0, -pad.axes[0] || 0];  // stick up: forward; stick left: turn left
+    // one control over both axes: off centre it says both, an axis inside the dead zone as 0 (straight up is
+    // forward and no turn, taught); inside the dead zone on both it says nothing and lets go. Said as unsaid,
+    // the student's own turn was learned as the person's with every stick pushed straight (issue 31's soak)
+    const off = (v) => Math.abs(v) > PAD_DEAD_ZONE;
+    next = stick.some(off) ? stick.map((v) => (off(v) ? Math.max(-1, Math.min(1, v)) : 0)) : null;
     $("gamepad").textContent = `gamepad: ${pad.id.slice(0, 40)}`;
   }
   if (JSON.stringify(next) !== JSON.stringify(padAxes)) { padAxes = next; teleop(); }
