@@ -213,7 +213,8 @@ def test_a_gamepad_stick_drives_and_teaches(live):
         page.evaluate("() => { window.padAxes = [0.0, 0.0]; }")
     mine = person_pairs(train, since)
     # a stick is one control: straight up, it says both, no turn taught as 0 (not left to the student)
-    assert all(np.isclose(p.y[0], 0.075) and np.isclose(p.y[1], 0.0) and p.mask is None for p in mine), "half forward, no turn"
+    assert all(np.isclose(p.y[0], 0.075) and np.isclose(p.y[1], 0.0) and p.mask is None for p in mine), \
+        "half forward, no turn"
     page.evaluate("() => { window.padAxes = [0.1, -0.1]; }")  # inside the dead zone on both axes: let go
     wait_until(lambda: "person" not in teaching_now(run), 5, "the stick at rest: the person let go")
     wait_until(lambda: "person" not in teaching_now(run), 5, "the stick centred: the person let go")
