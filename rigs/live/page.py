@@ -68,8 +68,8 @@ PAD_PLUGGED = """() => { window.doggedPad = {id: 'scripted stick', axes: [0.0, 0
 class StickPerson:
     """A scripted person at the page who knows ball seeking and drives with a gamepad stick: each tick it holds
     the stick where the ball-seeking teacher's answer is (up for forward, left for a left turn), as finely as a
-    stick says it (steps of 1/127 of its throw); a push inside the page's dead zone is said as none, as it is a
-    person's. It teaches by degrees, as the program does; KeyboardPerson's keys are whole turns."""
+    stick says it (steps of 1/127 of its throw); an axis inside the page's dead zone is said as 0, as a person's
+    is. It teaches by degrees, as the program does; KeyboardPerson's keys are whole turns."""
 
     STEPS = 127
 

@@ -3,7 +3,7 @@ the run recorded (in the order learned), judged on the inputs of the last span a
 (the teacher's program on each input, the same outputs and scale).
 
 The student is judged against the program, but a soak's teaching is not only the program's: the person at the
-page teaches too (in ball seeking with a stick, as finely as it says, a push inside its dead zone as none; a person
+page teaches too (in ball seeking with a stick, as finely as it says, an axis inside its dead zone as 0; a person
 pressing keys would teach whole turns where the program turns by degrees), and a student answers what it was
 taught. The live student's last error beside this one tells what the day itself cost it (kills, swaps, restarts,
 lost pairs), apart from what it was taught; and the same learner trained only on the program's teachers' pairs

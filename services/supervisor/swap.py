@@ -13,7 +13,7 @@ import time
 
 from bus_schema import ControlReply, InstanceKeys, SelectLearner, encode
 from services.boxes import learner as learner_box
-from services.bus.publishers import lossless_publisher, wait_matching
+from services.bus.publishers import lossless_publisher
 from services.learners import parse_learner_spec
 from services.supervisor.pair_logs import set_aside_stale_log
 
@@ -32,13 +32,6 @@ def _kept_args(args: tuple[str, ...]) -> list[str]:
             defining.add_argument(*action.option_strings, dest=action.dest, action="append")
     _, kept = defining.parse_known_args(list(args))
     return kept
-
-
-def select_learner(session, instance: str, learner: str) -> None:
-    """Tells the instance's arbitrator which learner to listen to."""
-    pub = lossless_publisher(session, InstanceKeys(instance).select_learner)
-    wait_matching(pub, 5.0)
-    pub.put(encode(SelectLearner(learner)))
 
 
 def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
@@ -76,7 +69,7 @@ def swap_learner(sup, session, service: str, spec_text: str) -> ControlReply:
                                    f"(see dogged logs {new_name})", {})
     warm_s = time.monotonic() - started
     if not _select(sup, session, spec.instance, new_name):
-        return ControlReply(False, f"the arbitrator did not confirm {new_name} in {SELECT_TRIES * SELECT_WAIT_S:g} s; "
+        return ControlReply(False, f"the arbitrator did not confirm {new_name} (told {SELECT_TRIES} times); "
                                    "both learners keep running", {})
     sup.retire(old.spec.name)
     sup.pump(session, lambda: "warmed" in sup.status_of(spec).get("counters", {}), 3.0)
@@ -91,13 +84,20 @@ SELECT_TRIES, SELECT_WAIT_S = 4, 5.0
 
 
 def _select(sup, session, instance: str, new_name: str) -> bool:
-    for _ in range(SELECT_TRIES):
-        select_learner(session, instance, new_name)
-        if sup.pump(session, lambda: sup.reports("arbitrator", "learner", new_name), SELECT_WAIT_S):
-            return True
-        if sup.stopping:
-            return False
-    return False
+    """Tells the instance's arbitrator which learner to listen to, again until its status says it does; every wait in
+    the supervisor's event loop (sup.pump), a subscriber matched before each put."""
+    pub = lossless_publisher(session, InstanceKeys(instance).select_learner)
+    try:
+        for _ in range(SELECT_TRIES):
+            sup.pump(session, lambda: pub.matching_status.matching, SELECT_WAIT_S)
+            pub.put(encode(SelectLearner(new_name)))
+            if sup.pump(session, lambda: sup.reports("arbitrator", "learner", new_name), SELECT_WAIT_S):
+                return True
+            if sup.stopping:
+                return False
+        return False
+    finally:
+        pub.undeclare()
 
 
 # a new learner learns the old one's history between answers (services.boxes.learner): the swap selects it once

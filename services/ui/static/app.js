@@ -251,7 +251,7 @@ document.querySelectorAll(".pad .arrow").forEach((b) => {
     b.addEventListener(ev, () => { if (held.delete(b.dataset.key)) teleop(); });
 });
 
-const PAD_DEAD_ZONE = 0.15;  // of a stick's throw: a worn stick at rest reads up to about a tenth
+const PAD_DEAD_ZONE = 0.15;  // of a stick's throw, each axis
 function pollGamepad() {
   const pads = navigator.getGamepads ? Array.from(navigator.getGamepads()).filter(Boolean) : [];
   const pad = pads[0];
