@@ -183,7 +183,8 @@ class Refitting:
         if consider:  # again once the leaf has learned twice as much: a search is five fits
             self._split_check = 2 * self._y_count
         job = partial(fit_and_split, self._xs[:self._m].copy(), self._ys[:self._m].copy(), self._hyper,
-                      self.fit_points, self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling)
+                      self.fit_points, self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling,
+                      repeats=self._repeats[:self._m].copy())
         seen = (self._input_sd(), self._y_count)  # what the fit sees, for the refit triggers
         if not self._background:
             self._adopt(job(consider), seen)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gp_evidence import Hyper, fit_rows, spread_rows
+from .gp_evidence import Hyper, fit_rows, fitted_rows
 
 CANDIDATES = 2  # inputs tried, those the leaf's samples span the most length scales of
 MIN_SIDE = 0.1  # of the rows, the least either half holds
@@ -45,12 +45,13 @@ class Split:
 
 def fit_and_split(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, prior_ell_sd: float,
                   noise_floor: float, max_iterations: int, noise_ceiling: np.ndarray | None,
-                  consider: bool) -> tuple[Hyper, Split | None]:
-    """The leaf's fit (gp_evidence.fit_rows on up to `fit_points` rows spread over its memory) and, when
+                  consider: bool, repeats: np.ndarray | None = None) -> tuple[Hyper, Split | None]:
+    """The leaf's fit (gp_evidence.fit_rows on up to `fit_points` rows spread over its memory, and the places
+    taught again: gp_evidence.fitted_rows, with the leaf's `repeats`) and, when
     `consider`, the best cut (at the middle of the range of one of the CANDIDATES inputs) that removes
     MIN_GAIN of the leave-one-out error between halves that disagree on what matters, else None. A pure
     function: it runs in the fitter's process when serving live."""
-    rows = spread_rows(len(xs), fit_points)
+    rows = fitted_rows(len(xs), fit_points, repeats)
     xs, ys = xs[rows], ys[rows]
     settings = (prior_ell_sd, noise_floor, max_iterations, noise_ceiling)
     hyper, whole = fit_rows(xs, ys, last, *settings)
