@@ -78,12 +78,12 @@ def test_repeats_survive_a_snapshot_and_a_snapshot_from_before_loads():
     assert np.isfinite(before.predict_one([0.1, 0.1]).y).all()
 
 
-
 def test_a_fit_sees_the_place_the_teacher_dwelt_on():
     """A ball seeker's 'nothing seen' (every input 0) was taught 20,929 times in a day, remembered once (weighing 16)
     among 758 samples of a ball in view; the fit's 256 rows spread over the memory missed it, ruled 'seen' an input
     that never varied and answered 'nothing seen' as a ball dead ahead: (0.03, 0.66), sure at 0.997, where every
-    lesson there said (0.0, 0.8). A fit now sees every row taught again (gp_evidence.fitted_rows)."""
+    lesson there said (0.0, 0.8). A fit now also sees the rows taught again, the most repeated first
+    (gp_evidence.fitted_rows)."""
     rng = np.random.default_rng(3)
     m, fit_points = 759, 256
     a, b = rng.uniform(-1, 1, (2, m))

@@ -182,18 +182,17 @@ class Refitting:
             self._y_count >= self._split_check and self._searching is None
         if consider:  # again once the leaf has learned twice as much: a search is five fits
             self._split_check = 2 * self._y_count
-        job = partial(fit_and_split, self._xs[:self._m].copy(), self._ys[:self._m].copy(), self._hyper,
-                      self.fit_points, self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling,
-                      repeats=self._repeats[:self._m].copy())
+        m, repeats = self._m, self._repeats[:self._m].copy()  # (read only, by the fit and by extend)
+        job = partial(fit_and_split, self._xs[:m].copy(), self._ys[:m].copy(), self._hyper, self.fit_points,
+                      self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling, repeats=repeats)
         seen = (self._input_sd(), self._y_count)  # what the fit sees, for the refit triggers
         if not self._background:
             self._adopt(job(consider), seen)
             return
         # the fitter builds the factor too, over the memory as it was, thinned there once full (to what _thin
         # leaves): the answer path extends it by what was taught meanwhile (gp_factor)
-        m = self._m
         drop = self._to_forget() if m >= self.memory else 0
-        memory = (m, self._thins, self._repeats[:m].copy())
+        memory = (m, self._thins, repeats)
         self._pending = (_submit(_fitter, fit_and_build, job, memory[2], self._born[:m].copy(), drop,
                                  self.noise_floor), seen + (memory,))
         if consider:
