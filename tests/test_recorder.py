@@ -331,3 +331,34 @@ def test_a_person_pauses_and_resumes_recording_and_the_file_says_so(tmp_path):
     assert len(keys) - 3 == 30 + (len(stream) - 75)  # the samples before the pause and after the resume
     assert rec.counts["paused_samples"] == 45
     assert rec.report()[1]["recording"] is True
+
+
+def test_an_input_that_never_arrived_is_counted_and_logged(tmp_path, caplog):
+    writer = RunWriter(tmp_path, "recorder", rotate_bytes=10**9, rotate_s=3600.0)
+    rec = Recording(writer, LOG)
+    ticks = [1, 2, 3, 5, 6, 9, 1, 2, 2 + recorder_box.MISSED_AT_MOST + 2, 1]  # 4, 7, 8 missed; restarts; a jump
+    with caplog.at_level(logging.WARNING, logger=LOG.name):
+        for i, t in enumerate(ticks):
+            rec.on_sample("dl/main/input", encode(Input(t, 1e9 + i, np.zeros(2))), 10**18 + i)
+        rec.on_sample("dl/other/input", encode(Input(7, 1e9, np.zeros(2))), 2 * 10**18)  # another instance's own
+    rec.writer.close()
+    assert rec.counts["inputs_missed"] == 3 and rec.counts["input_tick_jumps"] == 1
+    assert rec.counts["recorded"] == len(ticks) + 1  # counted, not refused: every input that came is recorded
+    said = [r.getMessage() for r in caplog.records]
+    assert any("1 input(s) never arrived before tick 5 (1 so far)" in m for m in said)
+    assert not any("before tick 9" in m for m in said)  # (logged at most every MISSED_LOG_S)
+    assert any(f"a jump of {recorder_box.MISSED_AT_MOST + 2} ticks" in m for m in said)
+
+
+def test_inputs_while_paused_are_not_inputs_missed(tmp_path):
+    writer = RunWriter(tmp_path, "recorder", rotate_bytes=10**9, rotate_s=3600.0)
+    rec = Recording(writer, LOG)
+    for t in range(1, 4):
+        rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, np.zeros(2))), 10**18 + t)
+    rec.paused = True
+    for t in range(4, 10):
+        rec.on_sample("dl/main/input", encode(Input(t, 1e9 + t, np.zeros(2))), 10**18 + t)
+    rec.paused = False
+    rec.on_sample("dl/main/input", encode(Input(10, 1e9 + 10, np.zeros(2))), 10**18 + 10)
+    rec.writer.close()
+    assert rec.counts["paused_samples"] == 6 and rec.counts["inputs_missed"] == 0

@@ -11,6 +11,9 @@ write; the switches themselves are recorded, so a file says why it has a gap.
 What waits to be written is bounded (`--inbox-mb`): past it, samples are dropped on arrival and counted
 (`inbox_dropped`), so a flood or a stalled disk costs those samples, not the process. On a stop, what
 had arrived is written before the file is finished.
+Inputs are a sensor stream (the platform never waits for a slow subscriber): one that never reached the recorder
+shows as a tick skipped, counted (`inputs_missed`) and logged; a jump past MISSED_AT_MOST ticks is counted as a
+jump (`input_tick_jumps`: a platform restarted elsewhere, a forged tick), not as that many inputs missed.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from pathlib import Path
 
 import zenoh
 
-from bus_schema import InstanceKeys, RecordSwitch, RobotKeys, SchemaError, Spaces, SpacesMessage, decode
+from bus_schema import Input, InstanceKeys, RecordSwitch, RobotKeys, SchemaError, Spaces, SpacesMessage, decode
 from bus_schema.catalog import payload_of
 from services.bus.config import add_bus_args, config_from_args
 from services.bus.inbox import Rejects
@@ -35,6 +38,8 @@ from services.recording.reader import is_finished, repair
 from services.recording.writer import McapTooOld, RunWriter, check_mcap, file_index
 
 RETRY_S = 5.0  # after a write failed, how long before a new file is tried
+MISSED_AT_MOST = 1000  # ticks skipped at once that can be inputs missed (33 s at 30 Hz); past it, a jump
+MISSED_LOG_S = 10.0  # inputs missed are logged at most this often, with the total so far
 
 
 class Recording:
@@ -47,6 +52,8 @@ class Recording:
         self.rejects, self.counts = (box.rejects, box.counts) if box else (Rejects(log), collections.Counter())
         self.error, self._retry_at = "", 0.0
         self.dims: dict[str, dict] = {}  # dl/<instance> -> the vector lengths its spaces give (once known)
+        self._last_tick: dict[str, int] = {}  # input key -> the tick of the last input received
+        self._missed_logged_at = -MISSED_LOG_S
 
     def on_sample(self, key: str, raw: bytes, log_ns: int) -> None:
         found = payload_of(key)
@@ -58,6 +65,8 @@ class Recording:
         except SchemaError as err:
             self.rejects(key, err)
             return
+        if isinstance(msg, Input):
+            self.note_tick(key, msg.tick)
         if isinstance(msg, RecordSwitch):  # every switch is recorded: the file says why it has a gap
             if msg.recorder in ("", self.name) and self.paused == msg.on:
                 self.log.info("recording %s by a person's switch", "resumed" if msg.on else "paused")
@@ -80,6 +89,22 @@ class Recording:
             self.log.info("recording again, into %s", self.writer.path)
             self.error = ""
         self.counts["recorded"] += 1
+
+    def note_tick(self, key: str, tick: int) -> None:
+        """Ticks skipped since the last input on `key` are inputs that never arrived (a tick not past the last
+        is a platform restarted, which counts from 1 again: nothing is missed)."""
+        last, self._last_tick[key] = self._last_tick.get(key), tick
+        skipped = tick - last - 1 if last is not None else 0
+        if skipped > MISSED_AT_MOST:
+            self.counts["input_tick_jumps"] += 1
+            self.log.warning("%s: tick %d after %d: a jump of %d ticks, not counted as inputs missed",
+                             key, tick, last, skipped + 1)
+        elif skipped > 0:
+            self.counts["inputs_missed"] += skipped
+            if time.monotonic() - self._missed_logged_at >= MISSED_LOG_S:
+                self._missed_logged_at = time.monotonic()
+                self.log.warning("%s: %d input(s) never arrived before tick %d (%d so far): not in the recording",
+                                 key, skipped, tick, self.counts["inputs_missed"])
 
     def on_spaces(self, key: str, raw: bytes) -> None:
         """The first answer is recorded and its vector lengths checked from then on; an answer that
