@@ -346,8 +346,21 @@ def test_an_input_that_never_arrived_is_counted_and_logged(tmp_path, caplog):
     assert rec.counts["recorded"] == len(ticks) + 1  # counted, not refused: every input that came is recorded
     said = [r.getMessage() for r in caplog.records]
     assert any("1 input(s) never arrived before tick 5 (1 so far)" in m for m in said)
-    assert not any("before tick 9" in m for m in said)  # (logged at most every MISSED_LOG_S)
-    assert any(f"a jump of {recorder_box.MISSED_AT_MOST + 2} ticks" in m for m in said)
+    assert not any("before tick 9" in m or "a jump" in m for m in said)  # (said at most every MISSED_LOG_S)
+    assert len(said) == 1
+
+
+def test_a_tick_jump_is_said_and_a_stranger_flipping_ticks_floods_no_log(tmp_path, caplog):
+    writer = RunWriter(tmp_path, "recorder", rotate_bytes=10**9, rotate_s=3600.0)
+    rec = Recording(writer, LOG)
+    far = 3 + recorder_box.MISSED_AT_MOST + 2
+    with caplog.at_level(logging.WARNING, logger=LOG.name):
+        for i, t in enumerate([1, 2, far] + [1, far] * 500):  # a forged tick 1, back and forth, 1,000 times
+            rec.on_sample("dl/main/input", encode(Input(t, 1e9 + i, np.zeros(2))), 10**18 + i)
+    rec.writer.close()
+    assert rec.counts["input_tick_jumps"] == 501 and rec.counts["inputs_missed"] == 0
+    said = [r.getMessage() for r in caplog.records]
+    assert len(said) == 1 and f"a jump of {far - 2} ticks (1 so far)" in said[0]
 
 
 def test_inputs_while_paused_are_not_inputs_missed(tmp_path):

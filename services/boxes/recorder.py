@@ -39,7 +39,7 @@ from services.recording.writer import McapTooOld, RunWriter, check_mcap, file_in
 
 RETRY_S = 5.0  # after a write failed, how long before a new file is tried
 MISSED_AT_MOST = 1000  # ticks skipped at once that can be inputs missed (33 s at 30 Hz); past it, a jump
-MISSED_LOG_S = 10.0  # inputs missed are logged at most this often, with the total so far
+MISSED_LOG_S = 10.0  # inputs missed and jumps are logged at most this often, with the totals so far
 
 
 class Recording:
@@ -95,16 +95,19 @@ class Recording:
         is a platform restarted, which counts from 1 again: nothing is missed)."""
         last, self._last_tick[key] = self._last_tick.get(key), tick
         skipped = tick - last - 1 if last is not None else 0
-        if skipped > MISSED_AT_MOST:
-            self.counts["input_tick_jumps"] += 1
-            self.log.warning("%s: tick %d after %d: a jump of %d ticks, not counted as inputs missed",
-                             key, tick, last, skipped + 1)
-        elif skipped > 0:
-            self.counts["inputs_missed"] += skipped
-            if time.monotonic() - self._missed_logged_at >= MISSED_LOG_S:
-                self._missed_logged_at = time.monotonic()
-                self.log.warning("%s: %d input(s) never arrived before tick %d (%d so far): not in the recording",
-                                 key, skipped, tick, self.counts["inputs_missed"])
+        if skipped <= 0:
+            return
+        jump = skipped > MISSED_AT_MOST
+        self.counts["input_tick_jumps" if jump else "inputs_missed"] += 1 if jump else skipped
+        if time.monotonic() - self._missed_logged_at < MISSED_LOG_S:
+            return  # (a stranger's ticks, back and forth, must not flood the log)
+        self._missed_logged_at = time.monotonic()
+        if jump:
+            self.log.warning("%s: tick %d after %d: a jump of %d ticks (%d so far), not counted as inputs missed",
+                             key, tick, last, skipped + 1, self.counts["input_tick_jumps"])
+        else:
+            self.log.warning("%s: %d input(s) never arrived before tick %d (%d so far): not in the recording",
+                             key, skipped, tick, self.counts["inputs_missed"])
 
     def on_spaces(self, key: str, raw: bytes) -> None:
         """The first answer is recorded and its vector lengths checked from then on; an answer that
