@@ -98,16 +98,14 @@ class Recording:
         if skipped <= 0:
             return
         jump = skipped > MISSED_AT_MOST
-        self.counts["input_tick_jumps" if jump else "inputs_missed"] += 1 if jump else skipped
+        counter = "input_tick_jumps" if jump else "inputs_missed"
+        self.counts[counter] += 1 if jump else skipped
         if time.monotonic() - self._missed_logged_at < MISSED_LOG_S:
             return  # (a stranger's ticks, back and forth, must not flood the log)
         self._missed_logged_at = time.monotonic()
-        if jump:
-            self.log.warning("%s: tick %d after %d: a jump of %d ticks (%d so far), not counted as inputs missed",
-                             key, tick, last, skipped + 1, self.counts["input_tick_jumps"])
-        else:
-            self.log.warning("%s: %d input(s) never arrived before tick %d (%d so far): not in the recording",
-                             key, skipped, tick, self.counts["inputs_missed"])
+        what, meaning = ((f"tick {tick} after {last}: a jump of {skipped + 1} ticks", "not counted as inputs missed")
+                         if jump else (f"{skipped} input(s) never arrived before tick {tick}", "not in the recording"))
+        self.log.warning("%s: %s (%d so far): %s", key, what, self.counts[counter], meaning)
 
     def on_spaces(self, key: str, raw: bytes) -> None:
         """The first answer is recorded and its vector lengths checked from then on; an answer that

@@ -186,15 +186,6 @@ def first_hyper(n_in: int, n_out: int) -> Hyper:
                  np.zeros(n_in, dtype=bool))
 
 
-def fit_memory(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, prior_ell_sd: float,
-               noise_floor: float, max_iterations: int, noise_ceiling: np.ndarray | None = None) -> Hyper:
-    """The hyper-parameters for remembered samples xs (m, n_in), ys (m, n_out), fitted on up to
-    `fit_points` of them spread over the memory (see fit_rows). A pure function of its arguments, so it
-    may run in another process."""
-    rows = spread_rows(len(xs), fit_points)
-    return fit_rows(xs[rows], ys[rows], last, prior_ell_sd, noise_floor, max_iterations, noise_ceiling)[0]
-
-
 def spread_rows(m: int, count: int) -> np.ndarray:
     """Up to `count` row numbers spread evenly over m rows."""
     return np.unique(np.linspace(0, m - 1, min(count, m)).round().astype(int))
@@ -252,5 +243,5 @@ def prior_start(d: int) -> Evidence:
     return Evidence(np.full(d, math.log(math.sqrt(d))), 0.0, math.log(0.1), 0.0)
 
 
-__all__ = ["Evidence", "Hyper", "first_hyper", "fit", "fit_memory", "fit_rows", "linear_share",
+__all__ = ["Evidence", "Hyper", "first_hyper", "fit", "fit_rows", "linear_share",
            "negative_log_posterior", "prior_start", "spread_rows", "fitted_rows"]
