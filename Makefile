@@ -36,7 +36,7 @@ chromium:
 # (services/placement.py), which a tier beside it then never wakes on (a fresh clone's CI on a 2-core machine half
 # as fast as the last failed the fuzz suite's rate, 24 of 30 Hz, with the tiers on every CPU)
 BESIDE_LOG := .beside-tiers.log
-BESIDE := nice -n 19 $(shell [ "$$(nproc)" -gt 1 ] && command -v taskset >/dev/null && echo taskset -c 0)
+BESIDE := sh rigs/beside.sh $(shell [ "$$(nproc)" -gt 1 ] && command -v taskset >/dev/null && echo taskset -c 0)
 test: $(STAMP) chromium
 	$(VENV)/bin/ruff check .
 	@($(BESIDE) $(VENV)/bin/pytest -q -rs -p no:cacheprovider --fast-tier; fast=$$?; \

@@ -17,7 +17,7 @@ CPUs. A learner learning its history before it serves (a restart's log, a swap's
 may use every CPU given until it serves live: kept to the background ones it shared one core with the
 recorder, the page and the browser, and an hour's swaps took 1.7-3x as long (knn 3.5 -> 5.8 s, LWPR 4.5 ->
 13.7 s on the soak's history; the wired per-output GP 256 -> 609 s, a CI running beside it), while the old
-learner served anyway.
+learner served anyway. Both take of a CPU only what the tick path leaves (services/priority.py).
 """
 from __future__ import annotations
 

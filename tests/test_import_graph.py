@@ -23,9 +23,9 @@ ROOTS = ("bus_schema", "services", "rigs", "tests", "benchmarks")
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("bus_schema", ("bus_schema",)),  # the contract: messages, keys, spaces; imports nothing of ours
     # what everything may use: argument parsing, waiting, the low-latency request, the CPUs a process runs on,
-    # the profiles (data)
+    # the profiles (data), how much of a contended CPU background work takes
     ("base", ("services", "services.allocator", "services.params", "services.waiting", "services.realtime",
-              "services.placement", "services.profiles")),
+              "services.placement", "services.priority", "services.profiles")),
     # plain Python, no bus: learners, teachers, arbitration, perception, the robots, the recording files
     # (MCAP: what the recorder writes and replays read; the recorded platform), a chain's spaces and
     # easing, a learner's pair log

@@ -31,8 +31,10 @@ def test_make_test_is_ruff_and_the_whole_suite_in_its_three_tiers_side_by_side_a
     assert f"$(VENV)/bin/pytest -q -rs --durations=30 {fast_tier.LIVE}; live=$$?;" in suite
     assert suite.endswith("[ $$live = 0 ] && [ $$tiers = 0 ]")  # every tier must pass
     assert (REPO / ".ci" / "run").read_text().rstrip().endswith("\nmake test")
-    # beside the live tier at the lowest priority, on CPU 0 alone where there are more (the tick paths' are above)
-    assert re.search(r"^BESIDE := nice -n 19 \$\(shell .*taskset -c 0\)$", (REPO / "Makefile").read_text(), re.M)
+    # beside the live tier at the lowest priority (rigs/beside.sh, tests/test_priority.py), on CPU 0 alone where
+    # there are more (the tick paths' are above)
+    assert re.search(r"^BESIDE := sh rigs/beside.sh \$\(shell .*taskset -c 0\)$", (REPO / "Makefile").read_text(),
+                     re.M)
 
 
 def test_make_demo_runs_the_demo():

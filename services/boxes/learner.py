@@ -35,6 +35,7 @@ from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_l
     stop_upkeep
 from services.pairlog import PairLog, PairLogError
 from services.placement import take_own_cpus, to_every_cpu
+from services.priority import stop_yielding, yield_cpus
 from services.params import parse_params
 
 
@@ -55,6 +56,7 @@ class LearnerNode(Warming):
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
         self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
         self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (say_when_fits_end)
+        self._yielding = False  # its session's group at nice 19 (catching up before it serves)
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
 
@@ -78,6 +80,8 @@ class LearnerNode(Warming):
             self.on_pair(pair)
         if self.backlog:
             self.catch_up(CATCH_UP_SLICE_S)
+        elif self._yielding and self.serving_live:
+            self.stop_yielding()
         self.say_when_fits_end()
 
     def say_when_fits_end(self) -> None:
@@ -178,8 +182,9 @@ class LearnerNode(Warming):
         if self._catching_up_since is None:
             self._catching_up_since = time.monotonic()
             self.log.info("learning %d pairs between answers (unsure until then)", len(self.backlog))
-            if not self.serving_live:  # not serving yet: minutes of a core's work, on every CPU it is given
-                to_every_cpu()
+            if not self.serving_live:  # not serving yet: minutes of a core's work, on every CPU it is given, taking
+                to_every_cpu()  # of each what the others leave (services/priority.py)
+                self._yielding = yield_cpus()
         end = time.monotonic() + budget_s
         while self.backlog:
             # a pair at a time, as `dogged replay` learns them: before serving live the model learns as offline, where
@@ -207,6 +212,17 @@ class LearnerNode(Warming):
             self.model.serve_live()
             self.serving_live = True
             take_own_cpus()  # back on the tick path's, if it was moved off them
+            self.stop_yielding()
+
+    def stop_yielding(self) -> None:
+        """Back to the tick path's priority: tried for a tenth of a second, then once a batch while the kernel
+        refuses (it allows one change in 100 ms, over all processes)."""
+        if self._yielding:
+            first = self.serving_live and self.counts["stop_yielding_tries"] == 0
+            self.counts["stop_yielding_tries"] += 1
+            self._yielding = not stop_yielding(tries=5 if first else 1)
+            if self._yielding and first:
+                self.log.warning("still at nice 19 after its catch-up: trying again at each batch")
 
     @property
     def learned_seq(self) -> int:

@@ -18,6 +18,7 @@ from functools import partial
 import numpy as np
 
 from services.placement import to_background
+from services.priority import become_background_process
 from services.waiting import poll
 
 from .gp_evidence import Hyper
@@ -58,8 +59,10 @@ def _pool(name: str) -> Executor:
 
 
 def _start_fitting(parent: int) -> None:
-    """A fitting process's first act: off the tick path's CPUs (services.placement), then watch its learner."""
+    """A fitting process's first act: off the tick path's CPUs (services.placement), taking of the background ones
+    what the router, the recorder and the page leave (services.priority), then watch its learner."""
     to_background()
+    become_background_process()
     _outlive_not(parent)
 
 
