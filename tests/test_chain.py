@@ -80,7 +80,9 @@ def test_chain_extra_appends_the_latest_sample_of_another_stream(router, tmp_pat
         unseen = [m.tick for m in judged if tuple(m.x[2:]) not in seen]
         assert len(unseen) <= 2, f"extras the probe never saw as inputs of `up`, at ticks {unseen}"
         lags = [m.tick - seen[tuple(m.x[2:])] for m in judged if tuple(m.x[2:]) in seen]
-        assert all(0 <= lag <= 5 for lag in lags), f"the extra is a recent sample of `up`: lags {sorted(set(lags))}"
+        # the latest when the command is handled: a command late by a few ticks (CI once: 3 at 50 Hz, a loaded
+        # machine) goes out with the inputs of `up` that came meanwhile, later than its own tick
+        assert all(-5 <= lag <= 5 for lag in lags), f"the extra is a recent sample of `up`: lags {sorted(set(lags))}"
         payload, problem = ask_owner(probe.session, "dl/low/spaces", 5.0)
         assert payload is not None, problem
         assert len(decode(SpacesMessage, payload, "dl/low/spaces").spaces["input"]["names"]) == 6

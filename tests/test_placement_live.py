@@ -6,7 +6,7 @@ import pytest
 
 from rigs.harness import dogged, dogged_ok, free_port, wait_until
 from services.placement import TICK_PATH_BOXES, plan, spell
-from services.priority import AUTOGROUP, group_nice
+from services.priority import AUTOGROUP, YIELDING_NICE, group_nice
 from tests.test_supervisor import ps
 
 pytestmark = pytest.mark.live
@@ -82,8 +82,8 @@ def test_up_places_the_tick_path_on_its_own_cpus_and_everything_else_off_them(tm
             assert thread_cpus(pid) == rest, "a fit is background work"
         if os.path.exists(AUTOGROUP):  # taking of the background CPUs what the others leave (services/priority.py)
             learner = rows["learner"]["pid"]
-            assert wait_until(lambda: all(group_nice(f"/proc/{pid}/autogroup") == 19 for pid in fitters), 30,
-                              "the fitters at group nice 19")
+            assert wait_until(lambda: all(group_nice(f"/proc/{pid}/autogroup") == YIELDING_NICE for pid in fitters),
+                              30, "the fitters at the yielding nice")
             assert all(os.getsid(pid) == pid for pid in fitters), "each fitter a session of its own"
             assert group_nice(f"/proc/{learner}/autogroup") == 0, "the learner serves at nice 0"
         text = dogged_ok("ps", endpoint=endpoint).stdout

@@ -1,6 +1,6 @@
 """Background work takes what the tick path leaves (services/priority.py): a session group's nice read and set as the
 kernel holds it, tried again while the kernel says to wait; a learner yielding while it learns its history and back
-at nice 0 once it serves; a GP's fitting process in a session of its own at nice 19, its learner's left as it was."""
+at nice 0 once it serves; a GP's fitting process in a session of its own at YIELDING_NICE, its learner's as it was."""
 import os
 import subprocess
 import sys
@@ -10,7 +10,7 @@ import pytest
 
 from rigs.harness import REPO
 from services import priority
-from services.priority import group_nice, set_group_nice, stop_yielding, yield_cpus
+from services.priority import YIELDING_NICE, group_nice, set_group_nice, stop_yielding, yield_cpus
 
 HAS_AUTOGROUP = os.path.exists(priority.AUTOGROUP)
 
@@ -77,7 +77,7 @@ def test_only_a_process_leading_its_own_session_yields_its_group(monkeypatch, tm
     monkeypatch.setattr(priority, "leads_its_session", lambda: False)
     assert not yield_cpus(str(group.path)) and group.writes == 0, "a terminal's session is not its to slow down"
     monkeypatch.setattr(priority, "leads_its_session", lambda: True)
-    assert yield_cpus(str(group.path)) and group_nice(str(group.path)) == 19
+    assert yield_cpus(str(group.path)) and group_nice(str(group.path)) == YIELDING_NICE
     assert stop_yielding(str(group.path)) and group_nice(str(group.path)) == 0
 
 
@@ -120,11 +120,11 @@ print(before[0] != os.getpid(), held, os.getsid(0) == os.getpid(), priority.grou
 
 @pytest.mark.live
 @pytest.mark.skipif(not HAS_AUTOGROUP, reason="no /proc/self/autogroup on this kernel")
-def test_a_fitting_process_gets_a_session_of_its_own_at_nice_19_and_its_parents_is_as_it_was():
+def test_a_fitting_process_gets_a_session_of_its_own_at_the_yielding_nice_and_its_parents_is_as_it_was():
     parent_nice = group_nice()
     done = subprocess.run([sys.executable, "-c", FITTER], cwd=REPO, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["True", "True", "True", "19", "19"]
+    assert done.stdout.split() == ["True", "True", "True", str(YIELDING_NICE), str(YIELDING_NICE)]
     assert group_nice() == parent_nice
 
 
@@ -141,7 +141,7 @@ def test_a_service_leading_its_session_yields_and_comes_back_unprivileged():
     done = subprocess.run([sys.executable, "-c", SERVICE], cwd=REPO, capture_output=True, text=True, timeout=60,
                           start_new_session=True)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["True", "19", "True", "0"]
+    assert done.stdout.split() == ["True", str(YIELDING_NICE), "True", "0"]
 
 
 BESIDE_PROBE = 'import os, sys; from services import priority; ' \

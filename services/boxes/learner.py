@@ -56,7 +56,7 @@ class LearnerNode(Warming):
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
         self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
         self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (say_when_fits_end)
-        self._yielding = False  # its session's group at nice 19 (catching up before it serves)
+        self._yielding = False  # its session's group yielding (catching up before it serves)
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
 
@@ -222,7 +222,7 @@ class LearnerNode(Warming):
             self.counts["stop_yielding_tries"] += 1
             self._yielding = not stop_yielding(tries=5 if first else 1)
             if self._yielding and first:
-                self.log.warning("still at nice 19 after its catch-up: trying again at each batch")
+                self.log.warning("still yielding after its catch-up: trying again at each batch")
 
     @property
     def learned_seq(self) -> int:
