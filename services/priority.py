@@ -22,6 +22,10 @@ import time
 
 AUTOGROUP = "/proc/self/autogroup"
 YIELDING_NICE = 5  # (above)
+# yielding is worth it while the work still gets this share of a core, looked at over each window: below it the
+# machine is full (two profiles side by side, a CI), the tick waits on everyone anyway, and the work only stops
+# (a CI's quick soak: a swap's catch-up 110 s at nice 5, 32-67 s at 0)
+STARVED_SHARE, STARVED_WINDOW_S = 0.25, 2.0
 RETRY_S, TRIES = 0.02, 50  # the kernel's limit: one change of any group's nice per 100 ms, over all processes
 
 log = logging.getLogger(__name__)
@@ -70,8 +74,7 @@ def stop_yielding(path: str = AUTOGROUP, tries: int = TRIES) -> bool:
 def become_background_process(path: str = AUTOGROUP) -> bool:
     """For a process that does background work all its life (a GP's fitting process, spawned by its learner):
     a session of its own at group nice YIELDING_NICE, and its own nice as well where the kernel groups no
-    sessions. Its
-    learner's session is left as it was."""
+    sessions. Its learner's session is left as it was."""
     try:
         os.setsid()
     except OSError:  # already leads a session: its own
@@ -84,3 +87,22 @@ def become_background_process(path: str = AUTOGROUP) -> bool:
     if not held:
         log.debug("no session group to lower here: fits at nice %d", os.nice(0))
     return held
+
+
+class ShareWatch:
+    """Whether this process got at least `share` of a core (its CPU time over the wall time) in each `window_s`."""
+
+    def __init__(self, share: float = STARVED_SHARE, window_s: float = STARVED_WINDOW_S,
+                 clock=time.monotonic, cpu=time.process_time):
+        self.share, self.window_s, self.clock, self.cpu = share, window_s, clock, cpu
+        self._since = (clock(), cpu())
+        self.last_share: float | None = None
+
+    def starved(self) -> bool:
+        """True once a window is over with less than `share`; False until a window is over."""
+        now, used = self.clock(), self.cpu()
+        wall = now - self._since[0]
+        if wall < self.window_s:
+            return False
+        self.last_share, self._since = (used - self._since[1]) / wall, (now, used)
+        return self.last_share < self.share

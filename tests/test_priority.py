@@ -10,7 +10,7 @@ import pytest
 
 from rigs.harness import REPO
 from services import priority
-from services.priority import YIELDING_NICE, group_nice, set_group_nice, stop_yielding, yield_cpus
+from services.priority import YIELDING_NICE, ShareWatch, group_nice, set_group_nice, stop_yielding, yield_cpus
 
 HAS_AUTOGROUP = os.path.exists(priority.AUTOGROUP)
 
@@ -107,6 +107,52 @@ def test_a_learner_yields_while_it_learns_its_history_and_not_once_it_serves(mon
     n.catch_up(0.0)
     assert len(calls) == 4, "held: nothing more; taught live is the tick path's work, not yielded"
     assert np.isfinite(n.wait())
+
+
+def test_a_share_watch_says_starved_once_a_window_held_less_than_its_share_of_a_core():
+    wall, cpu = [0.0], [0.0]
+    watch = ShareWatch(share=0.25, window_s=2.0, clock=lambda: wall[0], cpu=lambda: cpu[0])
+    wall[0], cpu[0] = 1.9, 0.0
+    assert not watch.starved() and watch.last_share is None, "no window over yet: nothing said"
+    wall[0], cpu[0] = 2.0, 1.0
+    assert not watch.starved() and watch.last_share == 0.5
+    wall[0], cpu[0] = 4.0, 1.4  # 0.4 s of CPU in the next 2 s
+    assert watch.starved() and watch.last_share == pytest.approx(0.2)
+
+
+class Starving:
+    """A ShareWatch whose second look says the machine is full."""
+    looks = 0
+
+    def __init__(self):
+        self.last_share, self.window_s = 0.05, 2.0
+
+    def starved(self):
+        Starving.looks += 1
+        return Starving.looks == 2
+
+
+def test_a_learner_catching_up_on_a_full_machine_stops_yielding_and_learns_on(monkeypatch):
+    from services.boxes import learner as learner_box
+    from tests.test_learner_box import pair
+    from tests.test_learner_catch_up import node
+    calls = []
+    monkeypatch.setattr(learner_box, "yield_cpus", lambda: calls.append("yield") or True)
+    monkeypatch.setattr(learner_box, "stop_yielding", lambda tries: calls.append(("back", tries)) or True)
+    monkeypatch.setattr(learner_box, "ShareWatch", Starving)
+    monkeypatch.setattr(Starving, "looks", 0)
+    monkeypatch.setattr(learner_box, "to_every_cpu", lambda: None)
+    monkeypatch.setattr(learner_box, "take_own_cpus", lambda: None)
+    n, _ = node()
+    n.replay([pair(s) for s in range(1, 21)])
+    n.catch_up(0.0)
+    n.catch_up(0.0)
+    assert calls == ["yield"] and not n.serving_live, "a share held: still yielding"
+    n.catch_up(0.0)
+    assert calls == ["yield", ("back", 5)] and n.counts["yield_starved"] == 1 and n.backlog
+    while n.backlog:
+        n.catch_up(0.0)
+    assert n.serving_live and calls == ["yield", ("back", 5)], "back already: nothing more once it serves"
 
 
 FITTER = """

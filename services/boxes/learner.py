@@ -35,7 +35,7 @@ from services.learners import DEFAULT_LEARNER, LEARNERS, compile_kernels, make_l
     stop_upkeep
 from services.pairlog import PairLog, PairLogError
 from services.placement import take_own_cpus, to_every_cpu
-from services.priority import stop_yielding, yield_cpus
+from services.priority import ShareWatch, stop_yielding, yield_cpus
 from services.params import parse_params
 
 
@@ -57,6 +57,7 @@ class LearnerNode(Warming):
         self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
         self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (say_when_fits_end)
         self._yielding = False  # its session's group yielding (catching up before it serves)
+        self._share = ShareWatch()  # (whether yielding still gets it a share of a core)
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
 
@@ -184,7 +185,12 @@ class LearnerNode(Warming):
             self.log.info("learning %d pairs between answers (unsure until then)", len(self.backlog))
             if not self.serving_live:  # not serving yet: minutes of a core's work, on every CPU it is given, taking
                 to_every_cpu()  # of each what the others leave (services/priority.py)
-                self._yielding = yield_cpus()
+                self._yielding, self._share = yield_cpus(), ShareWatch()
+        elif self._yielding and not self.serving_live and self._share.starved():
+            self.counts["yield_starved"] += 1
+            self.log.info("the machine is full (%.0f %% of a core in %.0f s): learning at the tick path's priority",
+                          100 * self._share.last_share, self._share.window_s)
+            self.stop_yielding()
         end = time.monotonic() + budget_s
         while self.backlog:
             # a pair at a time, as `dogged replay` learns them: before serving live the model learns as offline, where
@@ -215,14 +221,14 @@ class LearnerNode(Warming):
             self.stop_yielding()
 
     def stop_yielding(self) -> None:
-        """Back to the tick path's priority: tried for a tenth of a second, then once a batch while the kernel
-        refuses (it allows one change in 100 ms, over all processes)."""
+        """Back to the tick path's priority (serving, or the machine full): tried for a tenth of a second, then once
+        a batch while the kernel refuses (it allows one change in 100 ms, over all processes)."""
         if self._yielding:
-            first = self.serving_live and self.counts["stop_yielding_tries"] == 0
+            first = self.counts["stop_yielding_tries"] == 0
             self.counts["stop_yielding_tries"] += 1
             self._yielding = not stop_yielding(tries=5 if first else 1)
             if self._yielding and first:
-                self.log.warning("still yielding after its catch-up: trying again at each batch")
+                self.log.warning("still yielding (the kernel refused): trying again at each batch")
 
     @property
     def learned_seq(self) -> int:
