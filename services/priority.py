@@ -83,7 +83,7 @@ def become_background_process(path: str = AUTOGROUP) -> bool:
         os.nice(YIELDING_NICE - os.nice(0))
     except OSError:
         pass
-    held = leads_its_session() and set_group_nice(YIELDING_NICE, path)
+    held = yield_cpus(path)
     if not held:
         log.debug("no session group to lower here: fits at nice %d", os.nice(0))
     return held
@@ -100,9 +100,10 @@ class ShareWatch:
 
     def starved(self) -> bool:
         """True once a window is over with less than `share`; False until a window is over."""
-        now, used = self.clock(), self.cpu()
+        now = self.clock()
         wall = now - self._since[0]
-        if wall < self.window_s:
+        if wall < self.window_s:  # (looked at every slice of a catch-up: the CPU time only once a window is over)
             return False
+        used = self.cpu()
         self.last_share, self._since = (used - self._since[1]) / wall, (now, used)
         return self.last_share < self.share

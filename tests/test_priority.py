@@ -81,19 +81,26 @@ def test_only_a_process_leading_its_own_session_yields_its_group(monkeypatch, tm
     assert stop_yielding(str(group.path)) and group_nice(str(group.path)) == 0
 
 
-def test_a_learner_yields_while_it_learns_its_history_and_not_once_it_serves(monkeypatch):
+def learner_with_a_backlog(monkeypatch, back=lambda tries: True):
+    """A learner node with 20 pairs to catch up on, its CPUs left alone; each yield and each try to come back
+    (with its tries) noted in the list returned beside it."""
     from services.boxes import learner as learner_box
     from tests.test_learner_box import pair
     from tests.test_learner_catch_up import node
     calls = []
     monkeypatch.setattr(learner_box, "yield_cpus", lambda: calls.append("yield") or True)
-    refusals = iter([True, True])  # the kernel refuses twice, then allows
-    monkeypatch.setattr(learner_box, "stop_yielding", lambda tries: calls.append(("back", tries)) or
-                        not next(refusals, False))
+    monkeypatch.setattr(learner_box, "stop_yielding", lambda tries: calls.append(("back", tries)) or back(tries))
     monkeypatch.setattr(learner_box, "to_every_cpu", lambda: None)
     monkeypatch.setattr(learner_box, "take_own_cpus", lambda: None)
     n, _ = node()
     n.replay([pair(s) for s in range(1, 21)])
+    return n, calls
+
+
+def test_a_learner_yields_while_it_learns_its_history_and_not_once_it_serves(monkeypatch):
+    from tests.test_learner_box import pair
+    refusals = iter([True, True])  # the kernel refuses twice, then allows
+    n, calls = learner_with_a_backlog(monkeypatch, lambda tries: not next(refusals, False))
     n.catch_up(0.0)
     assert calls == ["yield"] and n.backlog
     while n.backlog:
@@ -122,29 +129,19 @@ def test_a_share_watch_says_starved_once_a_window_held_less_than_its_share_of_a_
 
 class Starving:
     """A ShareWatch whose second look says the machine is full."""
-    looks = 0
 
     def __init__(self):
-        self.last_share, self.window_s = 0.05, 2.0
+        self.last_share, self.window_s, self.looks = 0.05, 2.0, 0
 
     def starved(self):
-        Starving.looks += 1
-        return Starving.looks == 2
+        self.looks += 1
+        return self.looks == 2
 
 
 def test_a_learner_catching_up_on_a_full_machine_stops_yielding_and_learns_on(monkeypatch):
     from services.boxes import learner as learner_box
-    from tests.test_learner_box import pair
-    from tests.test_learner_catch_up import node
-    calls = []
-    monkeypatch.setattr(learner_box, "yield_cpus", lambda: calls.append("yield") or True)
-    monkeypatch.setattr(learner_box, "stop_yielding", lambda tries: calls.append(("back", tries)) or True)
     monkeypatch.setattr(learner_box, "ShareWatch", Starving)
-    monkeypatch.setattr(Starving, "looks", 0)
-    monkeypatch.setattr(learner_box, "to_every_cpu", lambda: None)
-    monkeypatch.setattr(learner_box, "take_own_cpus", lambda: None)
-    n, _ = node()
-    n.replay([pair(s) for s in range(1, 21)])
+    n, calls = learner_with_a_backlog(monkeypatch)
     n.catch_up(0.0)
     n.catch_up(0.0)
     assert calls == ["yield"] and not n.serving_live, "a share held: still yielding"

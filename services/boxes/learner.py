@@ -57,7 +57,7 @@ class LearnerNode(Warming):
         self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
         self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (say_when_fits_end)
         self._yielding = False  # its session's group yielding (catching up before it serves)
-        self._share = ShareWatch()  # (whether yielding still gets it a share of a core)
+        self._share: ShareWatch | None = None  # while yielding: whether it still gets a share of a core
         self.rejects, self.counts = box.rejects, box.counts
         self.pub = box.sensor_publisher(self.keys.proposal("learner", self.name))
 
