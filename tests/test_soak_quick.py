@@ -90,3 +90,5 @@ def test_the_student_is_judged_beside_what_its_teaching_alone_makes_of_it(profil
     assert profile["student_error_taught_reference"] is not None and profile["student_error_taught_reference"] >= 0
     program = profile["student_error_program_reference"]  # the person's pairs left out
     assert program is not None and program >= 0
+    split = profile["student_last_span"]  # the learner's answers drove the last span, bar deadline misses
+    assert split["answered"] > 0 and split["error_answered"] is not None, split

@@ -310,7 +310,7 @@ class Driver:
         m = self._marks
         ticks = np.array([dt for _, dt, _ in taken.ticks[m["ticks"]:]]) * 1e3
         answers = np.array([dt for _, dt in taken.answers[m["answers"]:]]) * 1e3
-        errors = [e for _, _, e in taken.errors[m["errors"]:]]
+        errors = [e for _, _, e, _ in taken.errors[m["errors"]:]]
         m.update(ticks=len(taken.ticks), answers=len(taken.answers), errors=len(taken.errors))
         row = Row(round(time.time() - self.t0, 1), sampling.procs(pids), percentiles(ticks), percentiles(answers),
                   float(np.mean(errors)) if errors else None, self.disk(), self.pairs(), self.rig.page_state(),

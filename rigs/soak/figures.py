@@ -85,6 +85,20 @@ def quarter_p99s(ticks: list, t0: float, length_s: float, faults: list[tuple[flo
 def alone_errors(errors: list) -> list[float]:
     """The student's mean error over each span alone, in order (a span with no judged tick is left out)."""
     spans: dict[int, list] = {}
-    for _, span, error in errors:
+    for _, span, error, _ in errors:
         spans.setdefault(span, []).append(error)
     return [float(np.mean(spans[s])) for s in sorted(spans)]
+
+
+def last_span_split(errors: list) -> dict:
+    """The last span alone told apart: its ticks the learner's answer drove (their mean error: the student's own)
+    and those held without it (the loop's: its answer missed the deadline), so that a last error above what the
+    teaching makes of the student says whose it is. None where there was no span."""
+    if not errors:
+        return {"answered": 0, "held": 0, "error_answered": None, "error_held": None}
+    last = max(span for _, span, _, _ in errors)
+    answered = [e for _, span, e, by_learner in errors if span == last and by_learner]
+    held = [e for _, span, e, by_learner in errors if span == last and not by_learner]
+    return {"answered": len(answered), "held": len(held),
+            "error_answered": round(float(np.mean(answered)), 4) if answered else None,
+            "error_held": round(float(np.mean(held)), 4) if held else None}

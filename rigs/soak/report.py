@@ -72,6 +72,7 @@ def print_events(result) -> None:
           f"{f['pairs_in_memory']}), recorded {f['pairs_recorded']} ({f['pairs_missing_from_recording']} missing); "
           f"lost {f['pairs_lost']}; recording gaps: {f['recording_gaps_s']} s outside the faults, "
           f"{f['recording_gaps_in_faults_s']} s inside; student error alone per span {f['student_errors']}; "
+          f"the last span's ticks the learner drove and those held without it: {f['student_last_span']}; "
           f"the wired learner trained offline on the recorded pairs, on the last span's inputs: "
           f"{f['student_error_taught_reference']}; on the program's teachers' pairs alone (the person's left out): "
           f"{f['student_error_program_reference']}")

@@ -177,6 +177,8 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
         "student_error_first_lesson": round(errors[0], 4) if errors else None,
         "student_error_last": round(errors[-1], 4) if errors else None,
         "student_errors": [round(e, 4) for e in errors],
+        # the last span's ticks the learner's answer drove, and those held without it (its answer missed the deadline)
+        "student_last_span": fig.last_span_split(taken.errors),
         # the wired learner trained offline on the recorded pairs, judged on the last span's inputs (taught.py)
         "student_error_taught_reference": None if reference is None else round(reference, 4),
         # and on the pairs the program's teachers taught (the page person's left out)

@@ -40,7 +40,7 @@ class Taken:
     """Everything the watch has taken in since the start (times are time.time())."""
     ticks: list = field(default_factory=list)      # (command arrival, tick seconds, mode)
     answers: list = field(default_factory=list)    # (proposal arrival, seconds since its input arrived)
-    errors: list = field(default_factory=list)     # (command arrival, alone span index, error)
+    errors: list = field(default_factory=list)     # (command arrival, alone span index, error, the learner's answer)
     judged: tuple = (None, [])                     # (the newest span judged, the inputs judged in it)
     inputs: list = field(default_factory=list)     # (input stamp, arrival): what the run published
     epochs: dict = field(default_factory=dict)     # arbitrator epoch -> the highest seq numbered in it
@@ -122,8 +122,8 @@ class LoopWatch:
             span, seen = self._alone_index(at), self._inputs.get(msg.tick)
             if span is not None and msg.mode != "teacher" and seen is not None:
                 error = self.judge(seen[0], msg.y)
-                if error is not None:
-                    t.errors.append((at, span, error))
+                if error is not None:  # (a command not the learner's: its answer missed the deadline, held)
+                    t.errors.append((at, span, error, msg.source.startswith("learner/")))
                     if t.judged[0] != span:
                         t.judged = (span, [])
                     t.judged[1].append(seen[0])
