@@ -92,13 +92,15 @@ def alone_errors(errors: list) -> list[float]:
 
 def last_span_split(errors: list) -> dict:
     """The last span alone told apart: its ticks the learner's answer drove (their mean error: the student's own)
-    and those held without it (the loop's: its answer missed the deadline), so that a last error above what the
-    teaching makes of the student says whose it is. None where there was no span."""
-    if not errors:
-        return {"answered": 0, "held": 0, "error_answered": None, "error_held": None}
-    last = max(span for _, span, _, _ in errors)
-    answered = [e for _, span, e, by_learner in errors if span == last and by_learner]
-    held = [e for _, span, e, by_learner in errors if span == last and not by_learner]
-    return {"answered": len(answered), "held": len(held),
-            "error_answered": round(float(np.mean(answered)), 4) if answered else None,
-            "error_held": round(float(np.mean(held)), 4) if held else None}
+    and the others (held, its answer having missed the deadline; or a default controller's), so that a last error
+    above what the teaching makes of the student says whose it is. Counts of 0 and errors of None: no such tick."""
+    last = max((span for _, span, _, _ in errors), default=None)
+    by_learner: dict[bool, list] = {True: [], False: []}
+    for _, span, error, learners in errors:
+        if span == last:
+            by_learner[learners].append(error)
+
+    def mean(values: list) -> float | None:
+        return round(float(np.mean(values)), 4) if values else None
+    return {"answered": len(by_learner[True]), "held": len(by_learner[False]),
+            "error_answered": mean(by_learner[True]), "error_held": mean(by_learner[False])}

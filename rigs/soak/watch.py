@@ -122,7 +122,7 @@ class LoopWatch:
             span, seen = self._alone_index(at), self._inputs.get(msg.tick)
             if span is not None and msg.mode != "teacher" and seen is not None:
                 error = self.judge(seen[0], msg.y)
-                if error is not None:  # (a command not the learner's: its answer missed the deadline, held)
+                if error is not None:  # (not the learner's: held, its answer past the deadline, or a default's)
                     t.errors.append((at, span, error, msg.source.startswith("learner/")))
                     if t.judged[0] != span:
                         t.judged = (span, [])
