@@ -202,8 +202,8 @@ def test_a_gamepad_stick_drives_and_teaches(live):
     run, page, train, _, _ = live
     time.sleep(0.5)  # the last pairs of the arrows before (lossless, decided up to a deadline later) are in
     since = len(train)
-    # a pad as the Gamepad API shows one: stick half up (axis 1 negative), no turn
-    page.evaluate("""() => { window.padAxes = [0.0, -0.5];
+    # a pad as the Gamepad API shows one: stick up (axis 1 negative) half the way from its dead zone's edge, no turn
+    page.evaluate("""() => { window.padAxes = [0.0, -0.575];
         Object.defineProperty(navigator, 'getGamepads', {configurable: true,
             value: () => [{id: 'test pad', axes: window.padAxes}]}); }""")
     try:
@@ -215,6 +215,10 @@ def test_a_gamepad_stick_drives_and_teaches(live):
     # a stick is one control: straight up, it says both, no turn taught as 0 (not left to the student)
     assert all(np.isclose(p.y[0], 0.075) and np.isclose(p.y[1], 0.0) and p.mask is None for p in mine), \
         "half forward, no turn"
+    # just past the dead zone (0.15 of the throw) a stick says a gentle turn, not none: 0.05 of the throw past it
+    since = len(train)
+    page.evaluate("() => { window.padAxes = [-0.1925, -0.575]; }")
+    wait_until(lambda: any(np.isclose(p.y[1], 0.04) for p in person_pairs(train, since)), 10, "a gentle left turn")
     page.evaluate("() => { window.padAxes = [0.1, -0.1]; }")  # inside the dead zone on both axes: let go
     wait_until(lambda: "person" not in teaching_now(run), 5, "the stick at rest: the person let go")
     wait_until(lambda: "person" not in teaching_now(run), 5, "the stick centred: the person let go")

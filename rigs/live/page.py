@@ -65,11 +65,23 @@ PAD_PLUGGED = """() => { window.doggedPad = {id: 'scripted stick', axes: [0.0, 0
     Object.defineProperty(navigator, 'getGamepads', {configurable: true, value: () => [window.doggedPad]}); }"""
 
 
+PAD_DEAD_ZONE = 0.15  # the page's (services/ui/static/app.js), of a stick's throw, each axis
+
+
+def pad_says(axis: float) -> float:
+    """What the page says of one stick axis: 0 inside its dead zone, past it the throw from the zone's edge
+    scaled to the whole range (as app.js's pollGamepad)."""
+    if abs(axis) <= PAD_DEAD_ZONE:
+        return 0.0
+    return float(np.sign(axis) * min(1.0, (abs(axis) - PAD_DEAD_ZONE) / (1.0 - PAD_DEAD_ZONE)))
+
+
 class StickPerson:
     """A scripted person at the page who knows ball seeking and drives with a gamepad stick: each tick it holds
-    the stick where the ball-seeking teacher's answer is (up for forward, left for a left turn), as finely as a
-    stick says it (steps of 1/127 of its throw); an axis inside the page's dead zone is said as 0, as a person's
-    is. It teaches by degrees, as the program does; KeyboardPerson's keys are whole turns."""
+    the stick where the page says the ball-seeking teacher's answer (up for forward, left for a left turn), as
+    finely as a stick says it (steps of 1/127 of its throw: the step whose say is nearest, the stick centred
+    when none is nearer than that). It teaches by degrees, as the program does; KeyboardPerson's keys are
+    whole turns."""
 
     STEPS = 127
 
@@ -78,6 +90,7 @@ class StickPerson:
         self.policy = make_teacher("ballseek", spaces)
         low, high = (np.asarray(b, dtype=np.float64) for b in (spaces.output.low, spaces.output.high))
         self.mid, self.half = (low + high) / 2, (high - low) / 2
+        self.says = np.array([pad_says(k / self.STEPS) for k in range(self.STEPS + 1)])  # each step's say
         page.evaluate(PAD_PLUGGED)
 
     def axes_for(self, x: np.ndarray) -> list[float]:
@@ -85,7 +98,8 @@ class StickPerson:
         y, _ = self.policy(x)
         if y is None:
             return [0.0, 0.0]
-        forward, turn = np.round(np.clip((np.asarray(y) - self.mid) / self.half, -1, 1) * self.STEPS) / self.STEPS
+        fractions = np.clip((np.asarray(y) - self.mid) / self.half, -1, 1)
+        forward, turn = (np.sign(f) * np.argmin(np.abs(self.says - abs(f))) / self.STEPS for f in fractions)
         return [float(-turn), float(-forward)]
 
     def drive(self, x, now: float) -> None:

@@ -75,7 +75,8 @@ def print_events(result) -> None:
           f"the last span's ticks the learner drove and those held without it: {f['student_last_span']}; "
           f"the wired learner trained offline on the recorded pairs, on the last span's inputs: "
           f"{f['student_error_taught_reference']}; on the program's teachers' pairs alone (the person's left out): "
-          f"{f['student_error_program_reference']}")
+          f"{f['student_error_program_reference']}; the page person's own pairs against the program: "
+          f"{f['person_taught_error']}")
 
 
 def print_recordings(result) -> None:
@@ -112,5 +113,6 @@ def summary(results: dict) -> dict:
             "student_error_last": {n: f["student_error_last"] for n, f in per.items()},
             "student_error_taught_reference": {n: f["student_error_taught_reference"] for n, f in per.items()},
             "student_error_program_reference": {n: f["student_error_program_reference"] for n, f in per.items()},
+            "person_taught_error": {n: f["person_taught_error"] for n, f in per.items()},
             "recordings_all_open": all(f["recordings_all_open"] for f in per.values()),
             "profiles": per}

@@ -15,7 +15,7 @@ from rigs.soak.day import Pace, day, pace
 from rigs.soak.driver import Driver
 from rigs.soak.rig import Rig
 from rigs.soak.sample import RecordedSoFar
-from rigs.soak.taught import taught_reference
+from rigs.soak.taught import taught_reference, teaching_error
 from rigs.soak.watch import LoopWatch
 from rigs.harness import free_port
 from services.recording.runs import load_run
@@ -100,14 +100,14 @@ def soak_profile(name: str, work: Path, hours: float, quick: bool, keep: bool = 
 
 
 def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began: float, log) -> tuple:
-    """(taught_reference's error on every recorded pair, and on the program's teachers' alone), logged; None for
-    one with the reason logged if it cannot be had: figures beside the others, whose absence must not cost the
-    hour's."""
+    """(taught_reference's error on every recorded pair, and on the program's teachers' alone; what the page
+    person taught, judged by teaching_error), logged; None for one with the reason logged if it cannot be had:
+    figures beside the others, whose absence must not cost the hour's."""
     try:
         run = load_run(folder)
     except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
         log(f"{name}: no reference: the recording did not load: {type(err).__name__}: {err}")
-        return None, None
+        return None, None, None
     judge, out = rig.judge(), []
     for what, sources in (("the", None), ("the program's teachers'", {f"teacher/{t}" for t in rig.teachers})):
         try:
@@ -119,11 +119,20 @@ def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began
         log(f"{name}: {rig.wired} trained offline on {what} {pairs} recorded pairs, judged on the last span's inputs: "
             f"{error}, after {time.monotonic() - began:.0f} s")
         out.append(error)
+    others = set(run.pair_sources.tolist()) - {f"teacher/{t}" for t in rig.teachers}  # the page person's
+    try:
+        error, pairs = teaching_error(run, judge, others)
+    except Exception as err:  # noqa: BLE001 - as above
+        log(f"{name}: no error of what {sorted(others)} taught: {type(err).__name__}: {err}")
+        error, pairs = None, 0
+    log(f"{name}: what {sorted(others)} taught, {pairs} pairs judged against the program: {error}")
+    out.append(error)
     return tuple(out)
 
 
 def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
-                    reference: float | None = None, program_reference: float | None = None) -> dict:
+                    reference: float | None = None, program_reference: float | None = None,
+                    person_error: float | None = None) -> dict:
     taken, pairs = d.watch.taken, last.pairs
     first_q, last_q = fig.quarter_p99s(taken.ticks, d.t0, d.pace.length_s, faults)
     errors = fig.alone_errors(taken.errors)
@@ -183,6 +192,8 @@ def profile_figures(d: Driver, last, growth, check, gaps, recorded, faults,
         "student_error_taught_reference": None if reference is None else round(reference, 4),
         # and on the pairs the program's teachers taught (the page person's left out)
         "student_error_program_reference": None if program_reference is None else round(program_reference, 4),
+        # the page person's own pairs judged as the student is: how far from the program the person taught
+        "person_taught_error": None if person_error is None else round(person_error, 4),
         "page": last.page, "page_rss_growth_mb_per_hour": page.rss_mb_per_hour if page else None,
         "page_js_heap_mb": (heaps[0], heaps[-1]) if heaps else None, "samples": len(d.rows),
     }

@@ -8,7 +8,7 @@ pressing keys would teach whole turns where the program turns by degrees), and a
 taught. The live student's last error beside this one tells what the day itself cost it (kills, swaps, restarts,
 lost pairs), apart from what it was taught; and the same learner trained only on the program's teachers' pairs
 (the person's left out), what the person's teaching cost it: whether more of the program's teaching ever made it
-worse."""
+worse. And the person's own pairs judged as the student is: how far from the program the person taught."""
 from __future__ import annotations
 
 import numpy as np
@@ -27,3 +27,13 @@ def taught_reference(run: RecordedRun, spec: str, judge, inputs: list, sources: 
     errors = [judge(x, run.spaces.output.clip(model.predict_one(x).y)) for x in inputs]
     errors = [e for e in errors if e is not None]
     return (float(np.mean(errors)) if errors else None), taught
+
+
+def teaching_error(run: RecordedRun, judge, sources: set[str]) -> tuple[float | None, int]:
+    """(the mean error of what `sources` taught, judged as the student is: the program on each pair's input against
+    the pair's output, how many pairs judged); only pairs teaching every output judged. None: no such pair."""
+    covers = run.pair_mask[:, judge.outputs].all(axis=1) if len(run.pair_mask) else np.zeros(0, dtype=bool)
+    rows = np.flatnonzero(np.isin(run.pair_sources, sorted(sources)) & covers)
+    errors = [judge(run.pair_x[i], run.pair_y[i]) for i in rows]
+    errors = [e for e in errors if e is not None]
+    return (float(np.mean(errors)) if errors else None), len(errors)

@@ -261,8 +261,13 @@ function pollGamepad() {
     // one control over both axes: off centre it says both, an axis inside the dead zone as 0 (straight up is
     // forward and no turn, taught); inside the dead zone on both it says nothing and lets go. Said as unsaid,
     // the student's own turn was learned as the person's with every stick pushed straight (issue 31's soak)
+    // past the dead zone an axis says its throw from the zone's edge, scaled to the whole range: a stick just off
+    // centre says a gentle turn. Said as the stick's own value, nothing under 0.15 of an output's range could be
+    // said: a person centring the ball (the program's turn under 0.15 while it is within 0.15 of the middle)
+    // taught no turn at all
     const off = (v) => Math.abs(v) > PAD_DEAD_ZONE;
-    next = stick.some(off) ? stick.map((v) => (off(v) ? Math.max(-1, Math.min(1, v)) : 0)) : null;
+    const past = (v) => Math.sign(v) * Math.min(1, (Math.abs(v) - PAD_DEAD_ZONE) / (1 - PAD_DEAD_ZONE));
+    next = stick.some(off) ? stick.map((v) => (off(v) ? past(v) : 0)) : null;
     $("gamepad").textContent = `gamepad: ${pad.id.slice(0, 40)}`;
   }
   if (JSON.stringify(next) !== JSON.stringify(padAxes)) { padAxes = next; teleop(); }
