@@ -3,7 +3,7 @@ the run recorded (in the order learned), judged on the inputs of the last span a
 (the teacher's program on each input, the same outputs and scale).
 
 The student is judged against the program, but a soak's teaching is not only the program's: the person at the
-page teaches too (in ball seeking with a stick, as finely as it says, an axis inside its dead zone as 0; a person
+page teaches too (in ball seeking with a stick, as finely as it says, on what it saw a tick before; a person
 pressing keys would teach whole turns where the program turns by degrees), and a student answers what it was
 taught. The live student's last error beside this one tells what the day itself cost it (kills, swaps, restarts,
 lost pairs), apart from what it was taught; and the same learner trained only on the program's teachers' pairs
@@ -32,7 +32,7 @@ def taught_reference(run: RecordedRun, spec: str, judge, inputs: list, sources: 
 def teaching_error(run: RecordedRun, judge, sources: set[str]) -> tuple[float | None, int]:
     """(the mean error of what `sources` taught, judged as the student is: the program on each pair's input against
     the pair's output, how many pairs judged); only pairs teaching every output judged. None: no such pair."""
-    covers = run.pair_mask[:, judge.outputs].all(axis=1) if len(run.pair_mask) else np.zeros(0, dtype=bool)
+    covers = run.pair_mask[:, judge.outputs].all(axis=1)  # (pairs are rows: (0, n_out) when none)
     rows = np.flatnonzero(np.isin(run.pair_sources, sorted(sources)) & covers)
     errors = [judge(run.pair_x[i], run.pair_y[i]) for i in rows]
     errors = [e for e in errors if e is not None]
