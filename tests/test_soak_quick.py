@@ -92,4 +92,3 @@ def test_the_student_is_judged_beside_what_its_teaching_alone_makes_of_it(profil
     assert program is not None and program >= 0
     split = profile["student_last_span"]  # the learner's answers drove the last span, bar deadline misses
     assert split["answered"] > 0 and split["error_answered"] is not None, split
-

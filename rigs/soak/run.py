@@ -108,8 +108,8 @@ def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began
     except Exception as err:  # noqa: BLE001 - whatever it was, it is said, and the other figures stand
         log(f"{name}: no reference: the recording did not load: {type(err).__name__}: {err}")
         return None, None, None
-    judge, out = rig.judge(), []
-    for what, sources in (("the", None), ("the program's teachers'", {f"teacher/{t}" for t in rig.teachers})):
+    judge, out, program = rig.judge(), [], {f"teacher/{t}" for t in rig.teachers}
+    for what, sources in (("the", None), ("the program's teachers'", program)):
         try:
             error, pairs = taught_reference(run, rig.wired, judge, watch.taken.judged[1], sources)
         except Exception as err:  # noqa: BLE001 - as above
@@ -119,7 +119,7 @@ def reference_or_none(folder: Path, rig: Rig, watch: LoopWatch, name: str, began
         log(f"{name}: {rig.wired} trained offline on {what} {pairs} recorded pairs, judged on the last span's inputs: "
             f"{error}, after {time.monotonic() - began:.0f} s")
         out.append(error)
-    others = set(run.pair_sources.tolist()) - {f"teacher/{t}" for t in rig.teachers}  # the page person's
+    others = set(run.pair_sources.tolist()) - program  # the page person's
     try:
         error, pairs = teaching_error(run, judge, others)
     except Exception as err:  # noqa: BLE001 - as above
