@@ -8,6 +8,7 @@ import numpy as np
 
 from .codec import BOOL, BYTES, FLOAT, INT, MAP, OPT_VECTOR, STR, VECTOR, VECTORS
 from .errors import SchemaError
+from .teachers import check_column, sources_of
 
 MODES = ("teacher", "student", "unsure")
 
@@ -103,19 +104,29 @@ class TrainingPair:
 @dataclass(frozen=True, slots=True)
 class PairBatch:
     """Many training pairs in one message (history, gap filling): rows of x, y and mask (the taught
-    outputs, all 1 for a whole pair), seqs first..first+n-1."""
-    FIELDS = (("epoch", STR), ("first_seq", INT), ("x", VECTORS), ("y", VECTORS), ("mask", VECTORS))
+    outputs, all 1 for a whole pair), seqs first..first+n-1; who taught each row (bus_schema.teachers:
+    `teachers`, names one a line, and `teacher_of`, a byte per row), or nothing where not said."""
+    FIELDS = (("epoch", STR), ("first_seq", INT), ("x", VECTORS), ("y", VECTORS), ("mask", VECTORS),
+              ("teachers", STR), ("teacher_of", BYTES))
+    DEFAULTS = {"teachers": "", "teacher_of": b""}
     MAX_BYTES = 256 * 1024 * 1024
     epoch: str
     first_seq: int
     x: np.ndarray
     y: np.ndarray
     mask: np.ndarray
+    teachers: str = ""
+    teacher_of: bytes = b""
 
     def check(self, key: str) -> None:
         if not len(self.x) == len(self.y) == len(self.mask):
             raise SchemaError(key, "y",
                               f"{len(self.y)} rows of y and {len(self.mask)} of mask for {len(self.x)} inputs")
+        check_column(key, self.teachers, self.teacher_of, len(self.x))
+
+    def sources(self) -> list[str] | None:
+        """Each row's teacher, or None where the sender did not say."""
+        return sources_of(self.teachers, self.teacher_of)
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,10 +4,10 @@ The file is a stream of msgpack TrainingPair payloads; a crash can cut the last 
 replay stops where the last record is incomplete and truncates the file there. A whole record that is
 not a pair this learner can learn (other dimensions: the spaces changed, or were answered by someone
 else) is a PairLogError, and the file is left as it is: nothing a learner was taught is thrown away.
-History (what a replacement learns at a hot-swap) is read from a second, temporary file of raw
-float64 rows (x | y | mask), in one read: decoding every record instead took a second per 100,000
-pairs, a second the old learner, still serving ticks, would not answer. A learner with no state
-directory keeps only that temporary file, which goes when it does. Hours of teaching cost disk, not
+History (what a replacement learns at a hot-swap) is read from a second, temporary file of raw float64 rows (x
+| y | mask | who taught it, numbered by bus_schema.teachers), in one read: decoding every record instead took
+a second per 100,000 pairs, a second the old learner, still serving ticks, would not answer. A learner with no
+state directory keeps only that temporary file, which goes when it does. Hours of teaching cost disk, not
 memory.
 """
 from __future__ import annotations
@@ -20,6 +20,7 @@ import msgpack
 import numpy as np
 
 from bus_schema import SchemaError, TrainingPair, decode, encode
+from bus_schema.teachers import TeacherColumn
 
 
 class PairLogError(RuntimeError):
@@ -34,6 +35,7 @@ class PairLog:
         self.rows_path = Path(self._scratch.name) / "rows"
         self._rows = open(self.rows_path, "ab")
         self._file = None  # the durable log, open once replay_file has read it
+        self.teachers = TeacherColumn()  # the rows' teachers, by number
         self._n = 0
 
     def __len__(self) -> int:
@@ -50,15 +52,19 @@ class PairLog:
 
     def _write_row(self, pair: TrainingPair) -> None:
         mask = np.ones(self.n_out) if pair.mask is None else pair.mask
-        self._rows.write(np.concatenate([pair.x, pair.y, mask]).astype(np.float64).tobytes())
+        teacher = float(self.teachers.number(pair.source))
+        self._rows.write(np.concatenate([pair.x, pair.y, mask, [teacher]]).astype(np.float64).tobytes())
 
-    def history(self, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The first n pairs (all by default) as (x, y, mask) arrays, in one read of the rows file."""
+    def history(self, n: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, str, bytes]:
+        """The first n pairs (all by default) as PairBatch's fields after its epoch and first seq: (x, y, mask)
+        arrays and who taught each (teachers, teacher_of), in one read of the rows file."""
         n = self._n if n is None else min(n, self._n)
         self._rows.flush()
-        width = self.n_in + 2 * self.n_out
+        n_in, n_out = self.n_in, self.n_out
+        width = n_in + 2 * n_out + 1
         rows = np.fromfile(self.rows_path, dtype=np.float64, count=n * width).reshape(n, width)
-        return rows[:, :self.n_in], rows[:, self.n_in:self.n_in + self.n_out], rows[:, self.n_in + self.n_out:]
+        return (rows[:, :n_in], rows[:, n_in:n_in + n_out], rows[:, n_in + n_out:-1],
+                *self.teachers.encoded(rows[:, -1]))
 
     def replay_file(self) -> list[TrainingPair]:
         """Pairs saved by an earlier run of this learner (it crashed or was restarted); opens for appending."""

@@ -45,7 +45,7 @@ def test_a_gap_is_filled_from_the_arbitrators_recent_pairs():
         learner.on_pair(pair(seq))
     assert (learner.seq, learner.counts["gap_filled"], learner.counts["pairs_lost"]) == (5, 2, 0)
     assert bus.asked == [f"{KEYS.train_recent}?from=3;to=4"]
-    x, y, _ = learner.pairs.history()
+    x, y, *_ = learner.pairs.history()
     assert learner.model.n_learned == 5 and x[:, 0].round(3).tolist() == [0.1, 0.2, 0.3, 0.4, 0.5]
 
 

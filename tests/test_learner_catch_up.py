@@ -5,6 +5,7 @@ again (benchmarks/soak.py). On a fake bus; tests/test_replay_restart.py and test
 import time
 
 import numpy as np
+import pytest
 
 from bus_schema import InstanceKeys, Input, Proposal, Snapshot, Status, TrainingPair, decode, encode
 from bus_schema.spaces import Box
@@ -196,3 +197,19 @@ def test_the_status_says_at_once_when_the_fits_end_not_a_second_later(monkeypatc
     turn()
     assert published == [1, 1, 1, 2, 2]
     assert decode(Status, bus.on(key)[-1], key).counters["upkeep_under_way"] == 0
+
+
+@pytest.mark.live  # caught up, the GP serves live: its fits in a process of their own
+def test_a_swap_to_a_gp_learns_the_history_as_the_old_learner_was_taught_by_each_teacher():
+    old, _ = node("old")
+    for seq in range(1, 41):
+        source = "teacher/person" if seq % 4 == 0 else "teacher/program"
+        old.on_pair(TrainingPair("e1", seq, seq, np.array([seq / 40, -seq / 40]), np.array([seq / 80]), source))
+    new, new_bus = node("new", make_learner("gp", 2, 1))
+    new_bus.answer(KEYS.snapshot("old"), lambda p: ask(old, KEYS.snapshot("old"), str(p)))
+    new_bus.answer(KEYS.history("old"), lambda p: ask(old, KEYS.history("old"), str(p)))
+    assert new.warm_from("old")
+    while new.backlog:
+        new.catch_up(0.0)
+    assert new.model.n_learned == 40 and new.model._sources == ["teacher/program", "teacher/person"]
+    assert new.pairs.history()[3:] == old.pairs.history()[3:]  # its own log names the teachers too

@@ -1,6 +1,7 @@
 import numpy as np
 
 from bus_schema import TrainingPair
+from bus_schema.teachers import sources_of
 from services.pairlog import PairLog
 
 
@@ -27,10 +28,12 @@ def test_history_reads_back_from_the_file_and_memory_holds_no_pairs():
     log = PairLog(3, 2)
     for i in range(3000):
         mask = np.array([1.0, 0.0]) if i % 7 == 0 else None
-        log.append(TrainingPair("e", i + 1, i, np.full(3, i, float), np.full(2, -i, float), "teacher/t", mask))
-    x, y, mask = log.history()
+        source = "teacher/p" if i % 5 == 0 else "teacher/t"
+        log.append(TrainingPair("e", i + 1, i, np.full(3, i, float), np.full(2, -i, float), source, mask))
+    x, y, mask, teachers, teacher_of = log.history()
     assert len(log) == 3000 and x.shape == (3000, 3) and x[2999, 0] == 2999 and y[10, 1] == -10
     assert mask[7].tolist() == [1.0, 0.0] and mask[8].tolist() == [1.0, 1.0]
+    assert sources_of(teachers, teacher_of)[:6] == ["teacher/p"] + ["teacher/t"] * 4 + ["teacher/p"]
     assert log.history(5)[0][:, 0].tolist() == [0, 1, 2, 3, 4]
     assert all(not isinstance(v, np.ndarray) or v.size < 100 for v in vars(log).values())
     scratch = log.rows_path

@@ -8,6 +8,7 @@ import pytest
 import zenoh
 
 from bus_schema import PairBatch, decode
+from bus_schema.teachers import sources_of
 from services.arbitration.recent_pairs import RecentPairs
 from services.arbitration.strategies import TeacherFirst
 from services.boxes.arbitrator import Arbitrator
@@ -23,7 +24,7 @@ def filled(capacity, n):
 
 
 def test_a_range_is_answered_row_for_row_with_its_masks():
-    first, xs, ys, masks = filled(8, 5).rows(2, 4)
+    first, xs, ys, masks, _, _ = filled(8, 5).rows(2, 4)
     assert first == 2 and xs[:, 0].tolist() == [2, 3, 4] and ys[:, 0].tolist() == [1.0, 1.5, 2.0]
     assert masks.tolist() == [[1, 0, 1], [1, 1, 1], [1, 0, 1]] and masks.dtype == np.float64
 
@@ -31,10 +32,18 @@ def test_a_range_is_answered_row_for_row_with_its_masks():
 def test_past_its_capacity_the_oldest_are_gone_and_the_rest_in_order():
     ring = filled(4, 10)
     assert len(ring) == 4 and ring.first_seq == 7
-    first, xs, _, _ = ring.rows(1, 100)
+    first, xs, *_ = ring.rows(1, 100)
     assert first == 7 and xs[:, 0].tolist() == [7, 8, 9, 10]
-    first, xs, ys, masks = ring.rows(1, 6)  # rolled past: none, named from what was asked
-    assert first == 1 and xs.shape == (0, 2) and ys.shape == masks.shape == (0, 3)
+    first, xs, ys, masks, _, teacher_of = ring.rows(1, 6)  # rolled past: none, named from what was asked
+    assert first == 1 and xs.shape == (0, 2) and ys.shape == masks.shape == (0, 3) and teacher_of == b""
+
+
+def test_each_row_says_who_taught_it():
+    ring = RecentPairs(4, 2, 3)
+    for seq, source in enumerate(["teacher/a", "teacher/b", "teacher/a", "", "teacher/c"], start=1):
+        ring.append(seq, np.zeros(2), np.zeros(3), None, source)
+    first, *_, teachers, teacher_of = ring.rows(1, 9)
+    assert first == 2 and sources_of(teachers, teacher_of) == ["teacher/b", "teacher/a", "unnamed", "teacher/c"]
 
 
 def test_a_seq_out_of_order_is_refused_and_changes_nothing():

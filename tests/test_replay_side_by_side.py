@@ -75,7 +75,8 @@ def test_a_failing_job_is_a_clear_error_and_the_processes_end(run):
     workers = ReplayWorkers(1, SPEC, recorded.spaces.input.dims, recorded.spaces.output.dims)
     processes = list(workers._processes)
     with workers, pytest.raises(RuntimeError, match="a replay process failed: IndexError"):
-        workers.run([Job(0, [7], recorded.x, recorded.pair_x, recorded.pair_y, recorded.pair_mask, plan)])
+        workers.run([Job(0, [7], recorded.x, recorded.pair_x, recorded.pair_y, recorded.pair_mask, plan,
+                         recorded.pair_sources)])
     with pytest.raises(ValueError, match="2 jobs for 0 processes"):
         workers.run([None, None])
     for process in processes:

@@ -39,12 +39,13 @@ def trains(decision: Decision, train_on: str = "teacher") -> bool:
     return decision.train or train_on == "all"
 
 
-def learn_pair(model, x, y, mask=None) -> bool:
-    """The learner's share of step 6. False when a partial pair had to be learned whole (the learner
-    takes no mask: see docs/results.md, use per-output)."""
+def learn_pair(model, x, y, mask=None, source: str | None = None) -> bool:
+    """The learner's share of step 6, told who taught the pair where it `learns_sources`. False when a
+    partial pair had to be learned whole (the learner takes no mask: see docs/results.md, use per-output)."""
     partial = mask is not None and not np.all(mask == 1)
+    told = {"source": source} if source is not None and getattr(model, "learns_sources", False) else {}
     if partial and getattr(model, "accepts_mask", False):
-        model.learn_one(x, y, mask=mask)
+        model.learn_one(x, y, mask=mask, **told)
         return True
-    model.learn_one(x, y)
+    model.learn_one(x, y, **told)
     return not partial

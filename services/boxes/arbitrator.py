@@ -214,7 +214,7 @@ class Arbitrator:
     def publish_pair(self, tick, x, y, source, mask=None):
         self.seq += 1
         pair = TrainingPair(self.epoch, self.seq, tick, x, np.asarray(y, dtype=np.float64), source, mask)
-        self.recent.append(self.seq, x, pair.y, mask)
+        self.recent.append(self.seq, x, pair.y, mask, source)
         self.train_pub.put(encode(pair))
         self.counts["train_pairs"] += 1
 

@@ -50,7 +50,7 @@ class LearnerNode(Warming):
         self.dims = {"x": model.n_in, "y": model.n_out, "mask": model.n_out}
         self.input_dims = {"x": model.n_in}
         self.epoch, self.seq = "", 0  # the last pair taken in (logged; learned once the backlog is)
-        self.backlog: collections.deque = collections.deque()  # (x, y, mask) taken in, yet to be learned
+        self.backlog: collections.deque = collections.deque()  # (x, y, mask, source) taken in, yet to be learned
         self._catching_up_since = None  # monotonic, while a backlog is learned
         self.serving_live = False  # the model's upkeep off the answer path: once its first catch-up is done
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
@@ -103,16 +103,16 @@ class LearnerNode(Warming):
         return 0.0 if self.backlog else 0.1
 
     # --- learning ---------------------------------------------------------------------------
-    def learn(self, x, y, mask) -> None:
-        if not learn_pair(self.model, x, y, mask):
+    def learn(self, x, y, mask, source=None) -> None:
+        if not learn_pair(self.model, x, y, mask, source):
             self.counts["partial_pairs_learned_whole"] += 1
 
     def incorporate(self, pair: TrainingPair):
         if self.backlog or time.monotonic() >= self._learn_until:
             # in order, behind what is yet to be learned; or, the batch's time to learn spent, between answers
-            self.backlog.append((pair.x, pair.y, pair.mask))
+            self.backlog.append((pair.x, pair.y, pair.mask, pair.source))
         else:
-            self.learn(pair.x, pair.y, pair.mask)
+            self.learn(pair.x, pair.y, pair.mask, pair.source)
         self.pairs.append(pair)
         self.epoch, self.seq = pair.epoch, pair.seq
         self.counts["learned"] += 1
@@ -159,9 +159,10 @@ class LearnerNode(Warming):
             self.log.error("training pairs %d..%d of epoch %s are gone; learning goes on without them",
                            first, last, self.epoch)
             return
-        for i, (x, y, mask) in enumerate(zip(batch.x, batch.y, batch.mask)):
+        sources = batch.sources() or ["gap-fill"] * len(batch.x)
+        for i, (x, y, mask, source) in enumerate(zip(batch.x, batch.y, batch.mask, sources)):
             seq, mask = first + i, None if np.all(mask == 1) else mask
-            self.incorporate(TrainingPair(self.epoch, seq, -1, x, y, "gap-fill", mask))
+            self.incorporate(TrainingPair(self.epoch, seq, -1, x, y, source, mask))
         self.counts["gap_filled"] += len(batch.x)
 
     def query(self, key, cls, parameters="", timeout=5.0):

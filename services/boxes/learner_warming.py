@@ -19,7 +19,7 @@ class Warming:
 
     def replay(self, pairs: list[TrainingPair]):
         """An earlier run's log (already in the pair log): learned between answers, from the first."""
-        self.backlog.extend((p.x, p.y, p.mask) for p in pairs)
+        self.backlog.extend((p.x, p.y, p.mask, p.source) for p in pairs)
         if pairs:
             self.epoch, self.seq = pairs[-1].epoch, pairs[-1].seq
         self.counts["replayed"] = len(pairs)
@@ -65,11 +65,12 @@ class Warming:
             self.counts["warmed_by_snapshot"] = 1
         else:
             how, start = f"training on {len(history.x)} pairs", 0
-        for i, (x, y, mask) in enumerate(zip(history.x, history.y, history.mask)):
+        sources = history.sources() or ["history"] * len(history.x)  # (an old learner may not say who taught)
+        for i, (x, y, mask, source) in enumerate(zip(history.x, history.y, history.mask, sources)):
             mask = None if np.all(mask == 1) else mask
-            self.pairs.append(TrainingPair(snap.epoch, history.first_seq + i, -1, x, y, "history", mask))
+            self.pairs.append(TrainingPair(snap.epoch, history.first_seq + i, -1, x, y, source, mask))
             if i >= start:  # learned between answers (catch_up), before the swap selects this learner
-                self.backlog.append((x, y, mask))
+                self.backlog.append((x, y, mask, source))
         self.epoch, self.seq = snap.epoch, last
         self.counts["warmed"] = len(history.x)
         self.log.info("warmed from %s by %s (%d pairs to learn; to seq %d of epoch %s)", old, how, len(self.backlog),

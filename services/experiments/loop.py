@@ -37,7 +37,7 @@ def tick(x: np.ndarray, teachers: list, learner, strategy=None, fallback: np.nda
         default = (name, Proposal(index, name, np.asarray(y, dtype=np.float64), float(confidence)))
     decision, _ = decide(strategy, proposals, student, default, fallback, output_space, choice)
     if trains(decision):
-        learn_pair(learner, x, decision.y, decision.mask)
+        learn_pair(learner, x, decision.y, decision.mask, decision.source)
     return decision, predicted.y, float(predicted.confidence)
 
 

@@ -54,6 +54,9 @@ def as_matrix(values, width: int, what: str, rows: int | None = None) -> np.ndar
     return array
 
 
+MAX_SOURCE_CHARS = 256
+
+
 def kernel_ready(values) -> np.ndarray:
     """C-contiguous, writeable float64 for a numba kernel: read-only arrays (np.frombuffer
     on a bus payload) would make numba compile a second specialisation, a long stall."""
@@ -135,6 +138,9 @@ class Learner:
     # classes of the learner's own state that its snapshot may hold (besides arrays, plain values and the
     # common ones: services.learners.snapshot_codec)
     state_classes: tuple[type, ...] = ()
+    # learn_one / learn_many take who taught each pair (`source`, `sources`: a teacher's name, as the pairs on the
+    # bus say it), to weigh each teacher as consistent as it shows itself (gp: each teacher's own noise)
+    learns_sources = False
 
     def __init__(self, n_in: int, n_out: int, seed: int = 0):
         if int(n_in) < 1 or int(n_out) < 1:
@@ -149,23 +155,43 @@ class Learner:
         self._n_broken = 0  # answers the model gave as NaN or inf, replaced by _sane
 
     # --- the contract -------------------------------------------------------------
-    def learn_one(self, x, y) -> None:
-        """Learn one (input, target) pair in place."""
+    def learn_one(self, x, y, source: str | None = None) -> None:
+        """Learn one (input, target) pair in place; `source`, who taught it, where the learner `learns_sources`."""
         x = as_vector(x, self.n_in, "inputs")
         y = as_vector(y, self.n_out, "outputs")
-        self._learn_one(x, y)
+        if source is not None:
+            self._learn_one(x, y, source=self._checked_source(source))
+        else:
+            self._learn_one(x, y)
         self._taught.learn(y)
         self._note_shown(x, y)
         self._n_learned += 1
 
-    def learn_many(self, xs, ys) -> None:
-        """Learn rows in order; all rows are checked before any is learned."""
+    def learn_many(self, xs, ys, sources=None) -> None:
+        """Learn rows in order; all rows are checked before any is learned. `sources`: who taught each row,
+        where the learner `learns_sources`."""
         xs = as_matrix(xs, self.n_in, "inputs")
         ys = as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0])
-        self._learn_many(xs, ys)
+        if sources is not None:
+            sources = list(sources)
+            if len(sources) != len(xs):
+                raise ValueError(f"sources must name the teacher of each of the {len(xs)} rows, got {len(sources)}")
+            self._learn_many(xs, ys, sources=[self._checked_source(source) for source in sources])
+        else:
+            self._learn_many(xs, ys)
         self._taught.learn(ys)
         self._note_shown(xs, ys)
         self._n_learned += xs.shape[0]
+
+    def _checked_source(self, source):
+        """A teacher's name, checked: a string of at most MAX_SOURCE_CHARS, told to a learner that
+        `learns_sources`."""
+        if not self.learns_sources:
+            raise TypeError(f"{type(self).__name__} does not tell its teachers apart: teach it without a source")
+        if not isinstance(source, str) or len(source) > MAX_SOURCE_CHARS:
+            raise ValueError(f"source must be a teacher's name of at most {MAX_SOURCE_CHARS} characters, got "
+                             f"{str(source)[:40]!r}")
+        return source
 
     def _note_shown(self, xs: np.ndarray, ys: np.ndarray) -> None:
         """The inputs' taught range and the outputs' running mean (FADE), for rows or one pair."""
@@ -262,9 +288,13 @@ class Learner:
     def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
         raise NotImplementedError
 
-    def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
-        for x, y in zip(xs, ys):
-            self._learn_one(x, y)
+    def _learn_many(self, xs: np.ndarray, ys: np.ndarray, sources: list[str] | None = None) -> None:
+        if sources is None:
+            for x, y in zip(xs, ys):
+                self._learn_one(x, y)
+        else:
+            for x, y, source in zip(xs, ys, sources):
+                self._learn_one(x, y, source=source)
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         raise NotImplementedError

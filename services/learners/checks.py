@@ -143,6 +143,43 @@ def check_learn_many_matches_learn_one(make: Factory) -> None:
         assert_same_learning(one, many, f"{start} rows learned, the last {size} by one learn_many")
 
 
+def check_sources_told(make: Factory) -> None:
+    """A learner that `learns_sources` (learn_one's `source`, learn_many's `sources`) answers, taught by one
+    teacher named, exactly as taught without names; learns a batch with its rows' teachers as row by row; and
+    refuses a source that is not a teacher's name. One that does not refuses any source (TypeError), never
+    learning the pair as if told nothing."""
+    xs, ys = smooth_task(120, seed=5)
+    model = make()
+    if not model.learns_sources:
+        try:
+            model.learn_one(xs[0], ys[0], source="teacher/a")
+        except TypeError:
+            return
+        raise AssertionError("a learner that does not tell teachers apart took a source")
+    named, plain = make(), make()
+    for x, y in zip(xs, ys):
+        named.learn_one(x, y, source="teacher/a")
+        plain.learn_one(x, y)
+    assert_same_predictions(named, plain)
+    sources = ["teacher/a" if i % 3 else "teacher/b" for i in range(len(xs))]
+    one, many = make(), make()
+    for x, y, source in zip(xs, ys, sources):
+        one.learn_one(x, y, source=source)
+    many.learn_many(xs, ys, sources=sources)
+    assert_same_learning(one, many, "a batch of two teachers' rows")
+    for bad in (3, b"teacher/a", "x" * 10_000):
+        try:
+            make().learn_one(xs[0], ys[0], source=bad)
+        except (TypeError, ValueError):
+            continue
+        raise AssertionError(f"source {bad!r:.40} was accepted")
+    try:
+        make().learn_many(xs[:3], ys[:3], sources=["teacher/a"])
+    except ValueError:
+        return
+    raise AssertionError("learn_many took fewer sources than rows")
+
+
 def bookkeeping(model: Learner) -> dict[str, np.ndarray]:
     """What the base class keeps of everything learned, by name."""
     return {"n_learned": np.array(model.n_learned), "size": np.array(model.size),
@@ -367,7 +404,7 @@ ALL_CHECKS = [
     check_confidence_knows_what_it_knows, check_confidence_doubts_an_input_that_never_varied,
     check_bad_input_rejected, check_error_messages, check_sane_on_robot_streams, check_no_nan_on_degenerate_streams,
     check_confidence_doubts_a_query_off_the_span, check_unsure_answers_fade_to_the_taught_mean,
-    check_more_teaching_is_not_worse_closed_loop,
+    check_more_teaching_is_not_worse_closed_loop, check_sources_told,
 ]
 
 

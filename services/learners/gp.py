@@ -30,6 +30,8 @@ from .registry import register
 # OVERLAP of the leaf's samples' range along the cut input): cut apart, answers near the cut saw one side
 # only, and random smooth maps taught for 60 s lost half their accuracy (benchmarks/unknown.py)
 OVERLAP = 0.25
+# teachers told apart, each with a noise of its own (gp_evidence.fit_rows); pairs of any more share the last's
+MOST_SOURCES = 8
 
 
 class GP(Learner):
@@ -49,6 +51,7 @@ class GP(Learner):
     """
 
     state_classes = (LocalGP,)
+    learns_sources = True
 
     def __init__(self, n_in: int, n_out: int, seed: int = 0, *, leaves: int = 8, memory: int = 800,
                  near: float = 0.04, fit_points: int = 256, first_fit: int = 8, refit_every: int = 1024,
@@ -68,6 +71,14 @@ class GP(Learner):
         self._low = np.full((1, n_in), -np.inf)  # leaf k holds the x with low[k] < x <= high[k]
         self._high = np.full((1, n_in), np.inf)
         self._reach_low, self._reach_high = self._low.copy(), self._high.copy()  # boxes widened by the overlaps
+        self._sources: list[str] = []  # the teachers told apart, by number (pairs told no teacher: number 0's)
+
+    def __setstate__(self, state: dict) -> None:
+        sources = state.setdefault("_sources", [])  # a snapshot from before teachers were told apart: []
+        if not isinstance(sources, list) or len(sources) > MOST_SOURCES or \
+                not all(isinstance(name, str) for name in sources) or len(set(sources)) != len(sources):
+            raise ValueError(f"a GP's teachers are at most {MOST_SOURCES} different names")
+        super().__setstate__(state)
 
     def _leaf_params(self) -> dict:
         return {name: getattr(self, name) for name in LocalGP.param_names()}
@@ -105,21 +116,34 @@ class GP(Learner):
         rows = range(len(self._parts)) if parts is None else parts
         return [k for k in rows if np.all((x > self._reach_low[k]) & (x <= self._reach_high[k]))]
 
-    def _learn_many(self, xs: np.ndarray, ys: np.ndarray) -> None:
+    def _learn_many(self, xs: np.ndarray, ys: np.ndarray, sources: list[str] | None = None) -> None:
         """Rows in order, as learn_one would; served live, each leaf's factor is rebuilt once at the end
         (gp_local.defer_factor), not per row, and a refit is due on schedule and on spread, not on surprise
         (which needs each row's answer)."""
         for part in self._parts:
             part.defer_factor(True)
         try:
-            super()._learn_many(xs, ys)
+            super()._learn_many(xs, ys, sources)
         finally:
             for part in self._parts:  # (leaves cut from a deferring one defer too)
                 part.defer_factor(False)
 
-    def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+    def _source_number(self, source: str | None) -> int:
+        """The teacher's number: in the order first taught, the first MOST_SOURCES - 1 each their own, any
+        later one the last's; a pair told no teacher is number 0's (a run's first teacher, as before teachers
+        were told apart)."""
+        if source is None:
+            return 0
+        if source in self._sources:
+            return self._sources.index(source)
+        if len(self._sources) < MOST_SOURCES:
+            self._sources.append(source)
+        return len(self._sources) - 1
+
+    def _learn_one(self, x: np.ndarray, y: np.ndarray, source: str | None = None) -> None:
+        number = self._source_number(source)
         for part in [self._parts[k] for k in self._reaching(x)]:
-            part.learn_one(x, y)
+            part.learn_one(x, y, source=number)
             self._take_split(self._parts.index(part))
 
     def _take_split(self, k: int) -> None:

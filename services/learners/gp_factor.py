@@ -49,40 +49,47 @@ def shape_of(hyper: Hyper, noise_floor: float) -> Shape:
                  max(math.exp(2.0 * (hyper.log_sn - hyper.log_sf)), noise_floor))
 
 
-def factor_live(xs: np.ndarray, m: int, repeats: np.ndarray, centre: np.ndarray, shape: Shape) -> Built:
+def factor_live(xs: np.ndarray, m: int, repeats: np.ndarray, centre: np.ndarray, shape: Shape,
+                noise: np.ndarray | None = None) -> Built:
     """The lower Cholesky factor of the kernel matrix plus noise over the first m rows: the matrix's lower
     triangle compiled (numpy's whole matrix took 10-18 ms of a 20 ms rebuild at 800 samples), factored in place
-    (C order's lower triangle is Fortran order's upper one)."""
+    (C order's lower triangle is Fortran order's upper one). `noise`: each row's noise over the fit's (its
+    teacher's, Hyper.noise_by_source), 1 where None."""
     unit = np.empty((m, m))
     gp_kernels.gram(xs, m, shape.inv_ell, centre, shape.smooth, shape.linear, unit)
     ratio = shape.ratio
     while True:
         gram = unit.copy()
-        gram.flat[::m + 1] += ratio / repeats[:m]
+        gram.flat[::m + 1] += (ratio if noise is None else ratio * noise[:m]) / repeats[:m]
         upper, failed = potrf(gram.T, lower=0, clean=1, overwrite_a=1)
         if failed == 0:
             return Built(upper.T, ratio)
         ratio *= 10.0  # rounding on near-duplicates: more noise, never a crash
 
 
-def fit_and_build(job, repeats: np.ndarray, born: np.ndarray, drop: int, noise_floor: float) -> tuple:
+def fit_and_build(job, repeats: np.ndarray, born: np.ndarray, drop: int, noise_floor: float,
+                  sources: np.ndarray | None = None) -> tuple:
     """In the fitter's process: the fit `job` (gp_split.fit_and_split over the leaf's memory, `job.args[0]`, no
     split considered); where `drop` > 0 the memory thinned under that fit as LocalGP._thin would (gp_memory:
-    the rows kept, else None); and the factor over the rows kept under the fit."""
+    the rows kept, else None); and the factor over the rows kept under the fit (each row's noise its teacher's,
+    `sources`)."""
     hyper, split = job(False)
     xs = job.args[0]
     shape = shape_of(hyper, noise_floor)
     keep = np.flatnonzero(~densest_older(xs * shape.inv_ell, born, drop)) if drop > 0 else None
     rows = np.arange(len(xs)) if keep is None else keep
-    return hyper, split, factor_live(xs[rows], len(rows), repeats[rows], hyper.centre, shape), keep
+    noise = None if sources is None or hyper.source_log_sn is None else \
+        hyper.noise_by_source(sources[rows], noise_floor)
+    return hyper, split, factor_live(xs[rows], len(rows), repeats[rows], hyper.centre, shape, noise), keep
 
 
 def extend(built: Built, seen_m: int, seen_repeats: np.ndarray, xs: np.ndarray, residual: np.ndarray,
            repeats: np.ndarray, m: int, centre: np.ndarray, shape: Shape, chol: np.ndarray,
-           beta: np.ndarray) -> bool:
+           beta: np.ndarray, noise: np.ndarray | None = None) -> bool:
     """chol and beta over the first m rows, from `built` over the first seen_m (the same rows, each then weighed
     seen_repeats): the rows taught since appended, the weights changed since updated. False, chol and beta
-    not to be used, when that would cost about a rebuild or rounding defeats it."""
+    not to be used, when that would cost about a rebuild or rounding defeats it. `noise`: each row's over the
+    fit's (factor_live)."""
     weighed = np.concatenate([seen_repeats[:seen_m], np.ones(m - seen_m)])
     changed = np.flatnonzero(weighed != repeats[:m])
     if len(changed) > MOST_REWEIGHED:
@@ -92,9 +99,10 @@ def extend(built: Built, seen_m: int, seen_repeats: np.ndarray, xs: np.ndarray, 
     before = np.empty(beta.shape[1])
     for row in range(seen_m, m):
         gp_kernels.append(xs, chol, beta, row, xs[row], residual[row], shape.inv_ell, centre, shape.smooth,
-                          shape.linear, built.ratio, before)
+                          shape.linear, built.ratio if noise is None else built.ratio * noise[row], before)
     for row in changed:
-        if not gp_kernels.reweigh(chol, m, int(row), built.ratio * (1.0 / repeats[row] - 1.0 / weighed[row])):
+        ratio = built.ratio if noise is None else built.ratio * noise[row]
+        if not gp_kernels.reweigh(chol, m, int(row), ratio * (1.0 / repeats[row] - 1.0 / weighed[row])):
             return False
     if len(changed):
         solve_beta(chol, beta, residual, m, int(changed.min()))

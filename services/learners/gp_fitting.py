@@ -186,8 +186,10 @@ class Refitting:
         if consider:  # again once the leaf has learned twice as much: a search is five fits
             self._split_check = 2 * self._y_count
         m, repeats = self._m, self._repeats[:self._m].copy()  # (read only, by the fit and by extend)
+        sources = self._source[:m].copy()
         job = partial(fit_and_split, self._xs[:m].copy(), self._ys[:m].copy(), self._hyper, self.fit_points,
-                      self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling, repeats=repeats)
+                      self.relevance_prior_sd, self.noise_floor, self.max_iterations, ceiling, repeats=repeats,
+                      sources=sources)
         seen = (self._input_sd(), self._y_count)  # what the fit sees, for the refit triggers
         if not self._background:
             self._adopt(job(consider), seen)
@@ -197,7 +199,7 @@ class Refitting:
         drop = self._to_forget() if m >= self.memory else 0
         memory = (m, self._thins, repeats)
         self._pending = (_submit(_fitter, fit_and_build, job, memory[2], self._born[:m].copy(), drop,
-                                 self.noise_floor), seen + (memory,))
+                                 self.noise_floor, sources), seen + (memory,))
         if consider:
             self._searching = _submit(_splitter, job, True)
 
@@ -244,7 +246,7 @@ class Refitting:
         shape = Shape(self._inv_ell, self._smooth, self._linear, built.ratio)
         if self._factored and not self._stale and extend(
                 built, seen_m, seen_repeats, self._xs, self._ys[:self._m] - self._hyper.mu, self._repeats, self._m,
-                self._hyper.centre, shape, self._chol, self._beta):
+                self._hyper.centre, shape, self._chol, self._beta, self._noise(self._m)):
             self._ratio = built.ratio
         else:
             self._rebuild()

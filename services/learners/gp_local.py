@@ -82,6 +82,7 @@ class LocalGP(Refitting, Repeats, Learner):
         self._xs, self._ys = np.zeros((0, n_in)), np.zeros((0, n_out))
         self._born = np.zeros(0, dtype=np.int64)  # when each remembered sample was last taught
         self._repeats = np.zeros(0)  # how many times each was taught (gp_repeats): its noise is the fit's / that
+        self._source = np.zeros(0, dtype=np.int64)  # who taught each (gp.GP's numbering): its noise is its teacher's
         self._chol, self._beta = np.zeros((0, 0)), np.zeros((0, n_out))
         self._y_count, self._y_mean, self._y_sum_sq = 0, np.zeros(n_out), np.zeros(n_out)
         self._envelope = InputEnvelope(n_in)
@@ -107,6 +108,13 @@ class LocalGP(Refitting, Repeats, Learner):
     def _unit_test_params(cls) -> dict:
         return {"memory": 200, "fit_points": 96}
 
+    learns_sources = True  # by number: the tree's (gp.GP) numbering of its teachers
+
+    def _checked_source(self, source) -> int:
+        if not isinstance(source, (int, np.integer)) or isinstance(source, bool) or not 0 <= source < 256:
+            raise ValueError(f"a leaf's source is its tree's number for a teacher, 0 to 255, got {source!r}")
+        return int(source)
+
     @property
     def size(self) -> int:
         """Samples remembered."""
@@ -118,21 +126,22 @@ class LocalGP(Refitting, Repeats, Learner):
         return self._inv_ell.copy()
 
     # --- learning ---------------------------------------------------------------------------
-    def _learn_one(self, x: np.ndarray, y: np.ndarray) -> None:
+    def _learn_one(self, x: np.ndarray, y: np.ndarray, source: int = 0) -> None:
         self._collect()
         self._envelope.learn(x[None, :])
         self._count_target(y)
         if not self._taught_again(x, y):
-            self._remember(x, y)
+            self._remember(x, y, source)
         self._fit_when_due()
         self._answer_cache = None
 
-    def _remember(self, x: np.ndarray, y: np.ndarray) -> None:
+    def _remember(self, x: np.ndarray, y: np.ndarray, source: int = 0) -> None:
         if self._m >= self._room():
             self._thin()
         self._reserve(self._m + 1)
         m = self._m
         self._xs[m], self._ys[m], self._born[m], self._repeats[m] = x, y, self._y_count, 1.0
+        self._source[m] = source
         if self._factored and self._deferring:
             self._m, self._stale = m + 1, True  # no surprise weighed: the answer it would test is not built
             return
@@ -147,7 +156,7 @@ class LocalGP(Refitting, Repeats, Learner):
         before = np.empty(self.n_out)
         unit_var = gp_kernels.append(self._xs, self._chol, self._beta, m, kernel_ready(x),
                                      kernel_ready(y - self._hyper.mu), self._inv_ell, self._hyper.centre,
-                                     self._smooth, self._linear, self._ratio, before)
+                                     self._smooth, self._linear, self._row_ratio(m), before)
         self._m = m + 1
         self._weigh_surprise(y - self._hyper.mu - before, unit_var)
         if self._background and self._m >= self.memory:
@@ -178,7 +187,7 @@ class LocalGP(Refitting, Repeats, Learner):
         if needed <= rows:
             return
         grown = min(self.memory + self.memory // LIVE_ROOM, max(needed, 2 * rows, 32))
-        for name in ("_xs", "_ys", "_born", "_repeats", "_beta"):
+        for name in ("_xs", "_ys", "_born", "_repeats", "_source", "_beta"):
             old = getattr(self, name)
             new = np.zeros((grown,) + old.shape[1:], dtype=old.dtype)
             new[:rows] = old
@@ -211,7 +220,7 @@ class LocalGP(Refitting, Repeats, Learner):
     def _keep(self, rows: np.ndarray) -> None:
         """The memory becomes these rows, in this order (ascending: the order taught); its factor is yet to be
         built."""
-        for name in ("_xs", "_ys", "_born", "_repeats"):
+        for name in ("_xs", "_ys", "_born", "_repeats", "_source"):
             array = getattr(self, name)
             array[:len(rows)] = array[rows]
         self._m = len(rows)
@@ -240,7 +249,7 @@ class LocalGP(Refitting, Repeats, Learner):
         k = len(order)
         child._reserve(k)
         child._xs[:k], child._ys[:k], child._born[:k] = self._xs[order], self._ys[order], np.arange(k)
-        child._repeats[:k] = self._repeats[order]
+        child._repeats[:k], child._source[:k] = self._repeats[order], self._source[order]
         child._m = child._n_learned = k
         child._envelope.learn(child._xs[:k])
         child._note_shown(child._xs[:k], child._ys[:k])
@@ -266,7 +275,9 @@ class LocalGP(Refitting, Repeats, Learner):
             gram = self._kernel(self._xs[:m], self._xs[:m])
             while True:
                 try:
-                    chol = np.linalg.cholesky(gram + np.diag(self._ratio / self._repeats[:m]))
+                    noise = self._noise(m)
+                    ratio = self._ratio if noise is None else self._ratio * noise
+                    chol = np.linalg.cholesky(gram + np.diag(ratio / self._repeats[:m]))
                     break
                 except np.linalg.LinAlgError:  # rounding on near-duplicates: more noise, never a crash
                     self._ratio *= 10.0
@@ -278,9 +289,22 @@ class LocalGP(Refitting, Repeats, Learner):
         """The factor by the compiled kernel matrix (gp_factor.factor_live), its noise ratio raised where rounding
         needed it."""
         built = factor_live(self._xs, self._m, self._repeats, self._hyper.centre,
-                            Shape(self._inv_ell, self._smooth, self._linear, self._ratio))
+                            Shape(self._inv_ell, self._smooth, self._linear, self._ratio), self._noise(self._m))
         self._ratio = built.ratio
         return built.chol
+
+    def _noise(self, m: int) -> np.ndarray | None:
+        """Each of the first m rows' noise over the fit's, by who taught it (gp_evidence.Hyper.noise_by_source);
+        None while the fit knows one teacher (each row's is the fit's)."""
+        if self._hyper.source_log_sn is None:
+            return None
+        return self._hyper.noise_by_source(self._source[:m], self.noise_floor)
+
+    def _row_ratio(self, row: int) -> float:
+        """Row `row`'s noise over the amplitude, its teacher's."""
+        if self._hyper.source_log_sn is None:
+            return self._ratio
+        return self._ratio * float(self._hyper.noise_by_source(self._source[row:row + 1], self.noise_floor)[0])
 
     def _kernel(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         za, zb = (a - self._hyper.centre) * self._inv_ell, (b - self._hyper.centre) * self._inv_ell
@@ -386,7 +410,7 @@ class LocalGP(Refitting, Repeats, Learner):
         state = dict(self.__dict__, _pending=None, _searching=None, _background=False, proposed_split=None,
                      _answer_cache=None, _sd_cache=None)
         m = self._m
-        for name in ("_xs", "_ys", "_born", "_repeats", "_beta"):
+        for name in ("_xs", "_ys", "_born", "_repeats", "_source", "_beta"):
             state[name] = getattr(self, name)[:m].copy()
         state["_chol"] = self._chol[:m, :m].copy()
         return state
@@ -395,5 +419,8 @@ class LocalGP(Refitting, Repeats, Learner):
         super().__setstate__(state)
         if len(self._repeats) != len(self._xs):  # a snapshot from before repeats were counted: each taught once
             self._repeats = np.ones(len(self._xs))
+        if len(self.__dict__.get("_source", ())) != len(self._xs):  # from before teachers were told apart: one
+            self._source = np.zeros(len(self._xs), dtype=np.int64)
+        self._source = np.clip(np.asarray(self._source), 0, 255).astype(np.int64)  # (a snapshot may come from the bus)
         self.__dict__.setdefault("_thins", 0)
 

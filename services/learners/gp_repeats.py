@@ -56,7 +56,7 @@ class Repeats:
             return
         m = self._m
         for j, old, new in zip(rows, before, repeats):
-            if not gp_kernels.reweigh(self._chol, m, int(j), self._ratio * (1.0 / new - 1.0 / old)):
+            if not gp_kernels.reweigh(self._chol, m, int(j), self._row_ratio(int(j)) * (1.0 / new - 1.0 / old)):
                 self._rebuild()  # rounding: from scratch
                 break
         else:

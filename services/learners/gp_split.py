@@ -45,16 +45,19 @@ class Split:
 
 def fit_and_split(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, prior_ell_sd: float,
                   noise_floor: float, max_iterations: int, noise_ceiling: np.ndarray | None,
-                  consider: bool, repeats: np.ndarray | None = None) -> tuple[Hyper, Split | None]:
+                  consider: bool, repeats: np.ndarray | None = None,
+                  sources: np.ndarray | None = None) -> tuple[Hyper, Split | None]:
     """The leaf's fit (gp_evidence.fit_rows on up to `fit_points` rows spread over its memory, and the places
     taught again: gp_evidence.fitted_rows, with the leaf's `repeats`) and, when
     `consider`, the best cut (at the middle of the range of one of the CANDIDATES inputs) that removes
-    MIN_GAIN of the leave-one-out error between halves that disagree on what matters, else None. A pure
+    MIN_GAIN of the leave-one-out error between halves that disagree on what matters, else None. `sources`: each
+    row's teacher (gp_evidence.fit_rows fits each one's noise). A pure
     function: it runs in the fitter's process when serving live."""
     rows = fitted_rows(len(xs), fit_points, repeats)
     xs, ys = xs[rows], ys[rows]
+    sources = None if sources is None else sources[rows]
     settings = (prior_ell_sd, noise_floor, max_iterations, noise_ceiling)
-    hyper, whole = fit_rows(xs, ys, last, *settings)
+    hyper, whole = fit_rows(xs, ys, last, *settings, sources=sources)
     if not consider or not np.isfinite(whole) or whole <= 0.0:
         return hyper, None
     spans = xs.std(0) * np.exp(-hyper.log_ell) * hyper.varied
@@ -67,7 +70,8 @@ def fit_and_split(xs: np.ndarray, ys: np.ndarray, last: Hyper, fit_points: int, 
         if not MIN_SIDE * len(xs) <= left.sum() <= (1.0 - MIN_SIDE) * len(xs):
             continue
         (left_hyper, left_error), (right_hyper, right_error) = (
-            fit_rows(xs[side], ys[side], hyper, *settings) for side in (left, ~left))
+            fit_rows(xs[side], ys[side], hyper, *settings, sources=None if sources is None else sources[side])
+            for side in (left, ~left))
         gain = 1.0 - (left_error + right_error) / whole  # the share of the leave-one-out error the cut removes
         if gain > MIN_GAIN and relevance_differs(xs, left, left_hyper, right_hyper) and \
                 (best is None or gain > best.gain):

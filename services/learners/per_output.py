@@ -40,6 +40,11 @@ class PerOutput(Learner):
         else:
             self._parts = [make_learner(base, n_in, 1, seed=seed + i, **self.params) for i in range(n_out)]
 
+    @property
+    def learns_sources(self) -> bool:
+        """Told who taught each pair where the base learner is (gp: each teacher's own noise)."""
+        return bool(getattr(LEARNERS[self.base], "learns_sources", False))
+
     def __setstate__(self, state: dict) -> None:
         state.setdefault("_held", [])  # a snapshot from before outputs shared: each its own learner
         super().__setstate__(state)
@@ -65,7 +70,7 @@ class PerOutput(Learner):
                                    "values": group["values"][~inside].copy()})
                 group["outputs"], group["values"] = outputs[inside].tolist(), group["values"][inside]
 
-    def _learn_held(self, xs: np.ndarray, ys: np.ndarray, taught: np.ndarray) -> None:
+    def _learn_held(self, xs: np.ndarray, ys: np.ndarray, taught: np.ndarray, sources: list | None) -> None:
         """Rows (all taught the `taught` outputs): each group's outputs still held learn as one; those taught
         another value get their own learner first, to learn it with the other parts."""
         self._part_held(taught)
@@ -79,33 +84,39 @@ class PerOutput(Learner):
             if not group["outputs"]:
                 self._held.remove(group)
             elif len(xs) == 1:
-                model.learn_one(xs[0], np.zeros(1))
+                model.learn_one(xs[0], np.zeros(1), **({} if sources is None else {"source": sources[0]}))
             else:
-                model.learn_many(xs, np.zeros((len(xs), 1)))
+                model.learn_many(xs, np.zeros((len(xs), 1)), **({} if sources is None else {"sources": sources}))
 
     # --- the contract -------------------------------------------------------------------------------
-    def learn_one(self, x, y, mask=None) -> None:
+    def learn_one(self, x, y, mask=None, source: str | None = None) -> None:
         x = as_vector(x, self.n_in, "inputs")
         y = as_vector(y, self.n_out, "outputs")
         taught = np.ones(self.n_out, dtype=bool) if mask is None else as_vector(mask, self.n_out, "mask values") != 0
+        told = {} if source is None else {"source": self._checked_source(source)}
         if self._held:
-            self._learn_held(x[None, :], y[None, :], taught)
+            self._learn_held(x[None, :], y[None, :], taught, None if source is None else [told["source"]])
         for i in np.flatnonzero(taught):
             if self._parts[i] is not None:
-                self._parts[i].learn_one(x, y[i:i + 1])
+                self._parts[i].learn_one(x, y[i:i + 1], **told)
         self._n_learned += 1
 
-    def learn_many(self, xs, ys) -> None:
+    def learn_many(self, xs, ys, sources=None) -> None:
         """Each part learns its output's column by its own batch path. As in learn_one, the taught ranges,
         the inputs shown and the taught mean are the parts' (they hold and fade their own answers); this
         one's stay unlearned, as a pair learned one at a time leaves them."""
         xs = as_matrix(xs, self.n_in, "inputs")
         ys = as_matrix(ys, self.n_out, "outputs", rows=xs.shape[0])
+        if sources is not None:
+            sources = [self._checked_source(source) for source in sources]
+            if len(sources) != len(xs):
+                raise ValueError(f"sources must name the teacher of each of the {len(xs)} rows, got {len(sources)}")
+        told = {} if sources is None else {"sources": sources}
         if self._held and len(xs):
-            self._learn_held(xs, ys, np.ones(self.n_out, dtype=bool))
+            self._learn_held(xs, ys, np.ones(self.n_out, dtype=bool), sources)
         for i, part in enumerate(self._parts):
             if part is not None:
-                part.learn_many(xs, ys[:, i:i + 1])
+                part.learn_many(xs, ys[:, i:i + 1], **told)
         self._n_learned += xs.shape[0]
 
     def predict_one(self, x) -> Prediction:

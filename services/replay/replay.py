@@ -82,7 +82,8 @@ def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None =
     if quasi_batch:
         return replay_quasi_batch(run, spec, seed, plan, model, progress)
     answers, learn_s, predict_s, learned = learn_and_answer(
-        model, run.x, (run.pair_x, run.pair_y, run.pair_mask), plan, lambda m, x: m.predict_one(x), progress)
+        model, run.x, (run.pair_x, run.pair_y, run.pair_mask, run.pair_sources), plan, lambda m, x: m.predict_one(x),
+        progress)
     ys = run.spaces.output.clip(np.array([p.y for p in answers]).reshape(len(run.ticks), n_out))
     confidence = np.array([p.confidence for p in answers], dtype=np.float64)
     return Replayed(spec, ys, confidence, learn_s, predict_s, learned, int(model.size))
@@ -90,13 +91,14 @@ def replay(run: RecordedRun, spec: str, seed: int = 0, plan: np.ndarray | None =
 
 def learn_and_answer(model, x: np.ndarray, pairs: tuple, plan: np.ndarray, answer, progress=None) -> tuple:
     """Each input x[i] answered, `answer(model, x[i])`, once the first plan[i] of `pairs` (xs, ys, masks) are
-    learned, in order; returns the answers, the seconds spent learning and answering, and the pairs learned."""
-    pair_x, pair_y, pair_mask = pairs
+    learned, in order (each told who taught it, `sources`, where the learner tells teachers apart); returns the
+    answers, the seconds spent learning and answering, and the pairs learned."""
+    pair_x, pair_y, pair_mask, pair_sources = pairs
     answers, learned, learn_s, predict_s = [], 0, 0.0, 0.0
     for i, xi in enumerate(x):
         start = time.perf_counter()
         while learned < plan[i]:
-            learn_pair(model, pair_x[learned], pair_y[learned], pair_mask[learned])
+            learn_pair(model, pair_x[learned], pair_y[learned], pair_mask[learned], str(pair_sources[learned]))
             learned += 1
         middle = time.perf_counter()
         answers.append(answer(model, xi))
@@ -134,12 +136,13 @@ def span_ended(run: RecordedRun, i: int) -> bool:
 
 
 def learn_pairs(model, run: RecordedRun, rows) -> int:
-    """The pairs `rows` picks (a slice or row numbers, in order) in one batch (per pair where some are partial);
-    returns how many."""
-    xs, ys, masks = run.pair_x[rows], run.pair_y[rows], run.pair_mask[rows]
+    """The pairs `rows` picks (a slice or row numbers, in order) in one batch (per pair where some are partial),
+    each told who taught it where the learner tells teachers apart; returns how many."""
+    xs, ys, masks, sources = run.pair_x[rows], run.pair_y[rows], run.pair_mask[rows], run.pair_sources[rows]
     if len(xs) and np.all(masks == 1):
-        model.learn_many(xs, ys)
+        told = {"sources": [str(s) for s in sources]} if getattr(model, "learns_sources", False) else {}
+        model.learn_many(xs, ys, **told)
         return len(xs)
-    for x, y, mask in zip(xs, ys, masks):
-        learn_pair(model, x, y, mask)
+    for x, y, mask, source in zip(xs, ys, masks, sources):
+        learn_pair(model, x, y, mask, str(source))
     return len(xs)

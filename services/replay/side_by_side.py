@@ -38,6 +38,7 @@ class Job:
     pair_y: np.ndarray
     pair_mask: np.ndarray
     plan: np.ndarray
+    pair_sources: np.ndarray  # who taught each pair
 
 
 def output_bins(run: RecordedRun, spec: str, most: int | None = None) -> list[list[int]]:
@@ -149,7 +150,7 @@ def replay_outputs(job: Job, spec: str, n_in: int, n_out: int) -> OutputsReplaye
     keep = np.zeros(n_out)
     keep[job.outputs] = 1.0
     answers, learn_s, predict_s, learned = learn_and_answer(
-        model, job.x, (job.pair_x, job.pair_y, job.pair_mask * keep), job.plan,
+        model, job.x, (job.pair_x, job.pair_y, job.pair_mask * keep, job.pair_sources), job.plan,
         lambda m, x: m.answers(x, job.outputs))
     y = np.array([a[0][job.outputs] for a in answers]).reshape(len(job.x), len(job.outputs))
     confidence = np.array([a[1][job.outputs] for a in answers]).reshape(y.shape)
@@ -160,7 +161,8 @@ def replay_side_by_side(run: RecordedRun, spec: str, seed: int, plan: np.ndarray
                         bins: list[list[int]]) -> Replayed:
     """As replay.replay(run, spec, seed, plan), each bin of outputs in one of `workers`. Its learn_s and
     predict_s are the slowest process's."""
-    jobs = [Job(seed, outputs, run.x, run.pair_x, run.pair_y, run.pair_mask, plan) for outputs in bins]
+    jobs = [Job(seed, outputs, run.x, run.pair_x, run.pair_y, run.pair_mask, plan, run.pair_sources)
+            for outputs in bins]
     parts: list[OutputsReplayed] = workers.run(jobs)
     n_out = run.spaces.output.dims
     y, confidence = np.zeros((len(run.ticks), n_out)), np.full((len(run.ticks), n_out), np.nan)
