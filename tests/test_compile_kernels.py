@@ -28,8 +28,10 @@ def signatures():
     return {f"{m.__name__}.{k}": len(v.signatures) for m in modules for k, v in vars(m).items()
             if isinstance(v, numba.core.registry.CPUDispatcher)}
 
-model = make_learner(sys.argv[1], 4, 2)
+model = make_learner(sys.argv[1], 4, 2, **json.loads(sys.argv[2]))
 compile_kernels(model)
+if sys.argv[3] == "served":
+    model.serve_live()
 before = signatures()
 rng = np.random.default_rng(1)
 for _ in range(200):
@@ -44,9 +46,11 @@ print(json.dumps({"kernels": len(after), "new": {k: v for k, v in after.items() 
 """
 
 
-@pytest.mark.parametrize("name", sorted(LEARNERS))
-def test_after_compile_kernels_serving_and_a_swaps_snapshot_compile_nothing_more(name):
-    out = subprocess.run([sys.executable, "-c", PROBE, name], cwd=REPO, capture_output=True, text=True, timeout=300)
+@pytest.mark.parametrize("name,params,how", [(name, {}, "offline") for name in sorted(LEARNERS)] + [
+    ("gp", {}, "served"), ("per-output", {"base": "gp"}, "served")])  # the deploy profiles' learners, as they serve
+def test_after_compile_kernels_serving_and_a_swaps_snapshot_compile_nothing_more(name, params, how):
+    out = subprocess.run([sys.executable, "-c", PROBE, name, json.dumps(params), how], cwd=REPO, capture_output=True,
+                         text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     found = json.loads(out.stdout.strip().splitlines()[-1])
     assert found["kernels"] > 0, "no compiled kernel found to watch"

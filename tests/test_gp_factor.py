@@ -9,6 +9,7 @@ from services.learners.gp_evidence import first_hyper
 from services.learners.gp_factor import MOST_REWEIGHED, extend, factor_live, shape_of
 from services.learners.unknown_tasks import draw_task
 from services.waiting import poll
+from tests.test_gp_answer_path import answers
 
 N_IN, N_OUT, M = 4, 2, 60
 
@@ -56,6 +57,12 @@ def test_too_many_rows_weighed_again_are_left_to_a_rebuild():
     assert not chol.any()  # declined before touching it
 
 
+def answers_from_the_factor(leaf) -> bool:
+    """Whether the served answer's alpha and float32 factor (gp_kernels.predict_one) are the landed factor's."""
+    fast, fast_var, exact, exact_var = answers(leaf, leaf._xs[0] + 0.01)
+    return bool(np.allclose(fast, exact, rtol=0.0, atol=1e-9) and abs(fast_var - exact_var) < 1e-4)
+
+
 @pytest.mark.live
 def test_served_live_each_fit_lands_with_the_factor_of_what_the_leaf_remembers():
     """A leaf taught live while its fits run aside, its memory small so that the fitter thins it too: every fit
@@ -67,7 +74,8 @@ def test_served_live_each_fit_lands_with_the_factor_of_what_the_leaf_remembers()
     model = make_learner("gp", 6, 1, seed=0, memory=160, leaves=1)
     model.serve_live()
     leaf = model.parts[0]
-    counts = {"landed": 0, "thinned aside": 0, "rebuilt on landing": 0, "wrong": 0, "most held": 0}
+    counts = {"landed": 0, "thinned aside": 0, "rebuilt on landing": 0, "wrong": 0, "most held": 0,
+              "answer not the factor's": 0}
     adopt, rebuild = leaf._adopt, leaf._rebuild
     rebuilt = [0]
 
@@ -85,6 +93,7 @@ def test_served_live_each_fit_lands_with_the_factor_of_what_the_leaf_remembers()
             return
         m = leaf._m
         chol, beta = leaf._chol[:m, :m].copy(), leaf._beta[:m].copy()
+        counts["answer not the factor's"] += int(not answers_from_the_factor(leaf))
         rebuild()  # the factor from scratch, to compare
         counts["wrong"] += int(not (np.allclose(chol, leaf._chol[:m, :m], atol=1e-8)
                                     and np.allclose(beta, leaf._beta[:m], atol=1e-6)))
@@ -101,6 +110,6 @@ def test_served_live_each_fit_lands_with_the_factor_of_what_the_leaf_remembers()
         return leaf._pending is None
     poll(settled, 60.0)
     assert counts["landed"] >= 10 and counts["thinned aside"] >= 3, counts
-    assert counts["wrong"] == 0, counts
+    assert counts["wrong"] == 0 and counts["answer not the factor's"] == 0, counts
     assert counts["rebuilt on landing"] <= counts["landed"] // 4, counts
     assert counts["most held"] <= 160 + 160 // 16, counts

@@ -18,6 +18,20 @@ def test_batches_merge_to_the_whole_stream_mean_and_spread():
     np.testing.assert_allclose(envelope.sum_sq / envelope.count, xs.var(axis=0), rtol=1e-9)
 
 
+def test_one_row_at_a_time_gives_numpys_numbers_to_the_bit():
+    """The compiled one-row merge is the numpy one it replaced: delta delta' count / total, delta / total."""
+    rows = np.random.default_rng(3).normal(size=(200, 7)) * [1, 10, 0.1, 1, 1, 5, 1e-3]
+    envelope, mean, scatter = InputEnvelope(7), np.zeros(7), np.zeros((7, 7))
+    for count, row in enumerate(rows):
+        envelope.learn(row[None, :])
+        total = count + 1
+        delta = row - mean
+        scatter += np.outer(delta, delta) * (count / total)
+        mean += delta / total
+    assert envelope.count == 200
+    assert np.array_equal(envelope.mean, mean) and np.array_equal(envelope.scatter, scatter)
+
+
 def test_discount_is_one_within_experience_and_falls_beyond_it():
     envelope = InputEnvelope(2)
     assert envelope.beyond_inputs(np.ones((1, 2)), 0.25).tolist() == [1.0]  # nothing learned: no opinion

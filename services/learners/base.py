@@ -85,10 +85,13 @@ class TaughtRange:
         self.floor, self.ceiling = np.full(n_out, -np.inf), np.full(n_out, np.inf)
 
     def learn(self, ys: np.ndarray) -> None:
-        ys = ys.reshape(-1, len(self.low))
-        if len(ys) == 0:
-            return
-        low, high = (ys[0], ys[0]) if len(ys) == 1 else (ys.min(0), ys.max(0))
+        if ys.ndim == 1 and ys.shape == self.low.shape:  # one row, as most are learned
+            low = high = ys
+        else:
+            ys = ys.reshape(-1, len(self.low))
+            if len(ys) == 0:
+                return
+            low, high = (ys[0], ys[0]) if len(ys) == 1 else (ys.min(0), ys.max(0))
         # a value within the range changes nothing: the common case costs two comparisons
         if not ((low < self.low).any() or (high > self.high).any()):
             return
@@ -200,6 +203,10 @@ class Learner:
 
     def _note_taught_mean(self, ys: np.ndarray) -> None:
         """The outputs' running mean over every pair taught (FADE), for rows or one pair."""
+        if ys.ndim == 1:  # one pair: ys.sum(0) is ys, 1 * the mean the mean
+            self._taught_count += 1
+            self._taught_mean = self._taught_mean + (ys - self._taught_mean) / self._taught_count
+            return
         ys = ys.reshape(-1, self.n_out)
         self._taught_count += len(ys)
         self._taught_mean = self._taught_mean + (ys.sum(0) - len(ys) * self._taught_mean) / self._taught_count
@@ -263,6 +270,10 @@ class Learner:
     def serve_live(self) -> None:
         """A service is about to serve a live loop with this learner: one whose upkeep can take long
         (the GP's fits) moves it off the caller's thread. Offline use stays deterministic."""
+
+    def warm_served(self) -> None:
+        """Run once the compiled kernels only serving live uses (the GP's answer from alpha and a float32 factor),
+        so that compile_kernels builds them before a service says it is ready; nothing else changes."""
 
     @property
     def upkeep_under_way(self) -> int:

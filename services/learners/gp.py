@@ -113,6 +113,8 @@ class GP(Learner):
 
     def _reaching(self, x: np.ndarray, parts: list[int] | None = None) -> list[int]:
         """The leaves that learn x: those whose box, widened by its overlap at each cut, holds it."""
+        if parts is None and len(self._parts) == 1:
+            return [0]  # one leaf: its box is everything
         rows = range(len(self._parts)) if parts is None else parts
         return [k for k in rows if np.all((x > self._reach_low[k]) & (x <= self._reach_high[k]))]
 
@@ -205,13 +207,16 @@ class GP(Learner):
         leaf._ys[:leaf._m] = target
         if leaf._y_count:
             leaf._y_mean = target.copy()
-        leaf._answer_cache = None
         return twin
 
     def serve_live(self) -> None:
         """Every leaf fits in the fitter's process (gp_local.LocalGP.serve_live), and so do the halves of a split."""
         for part in self._parts:
             part.serve_live()
+
+    def warm_served(self) -> None:
+        for part in self._parts:
+            part.warm_served()
 
     @property
     def upkeep_under_way(self) -> int:

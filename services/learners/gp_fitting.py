@@ -21,6 +21,7 @@ from services.placement import to_background
 from services.priority import become_background_process
 from services.waiting import poll
 
+from . import gp_kernels
 from .gp_evidence import Hyper
 from .gp_factor import Built, Shape, extend, fit_and_build, shape_of
 from .gp_split import RELEVANCE_RATIO, fit_and_split
@@ -151,9 +152,10 @@ class Refitting:
     def _weigh_surprise(self, error: np.ndarray, unit_var: float) -> None:
         """Every taught tick tests what the learner would have said: a running mean of the squared
         standardised error (over the least expected output), which a refit resets."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z2 = np.where(error != 0.0, error * error / (unit_var * self._amplitude2()), 0.0)
-        self._surprise += (min(float(z2.max()), 25.0) - self._surprise) / SURPRISE_REFIT_GAP
+        taught = self._taught
+        z2 = gp_kernels.surprise(error, unit_var, self._hyper.log_sf, self._y_sum_sq, self._y_count, taught.low,
+                                 taught.high)
+        self._surprise += (z2 - self._surprise) / SURPRISE_REFIT_GAP
 
     def serve_live(self) -> None:
         """Fit hyper-parameters in another process from now on (a fit takes up to seconds; the loop must
@@ -248,6 +250,7 @@ class Refitting:
                 built, seen_m, seen_repeats, self._xs, self._ys[:self._m] - self._hyper.mu, self._repeats, self._m,
                 self._hyper.centre, shape, self._chol, self._beta, self._noise(self._m)):
             self._ratio = built.ratio
+            self._factor_changed(0)
         else:
             self._rebuild()
 
@@ -258,6 +261,5 @@ class Refitting:
         self._inv_ell, self._smooth, self._linear, self._ratio = shape_of(hyper, self.noise_floor)
         self._fitted_sd, self._last_fit = seen if seen is not None else (self._input_sd(), self._y_count)
         self._surprise = 0.0
-        self._answer_cache = None
         if rebuild:
             self._rebuild()

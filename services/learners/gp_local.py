@@ -84,6 +84,10 @@ class LocalGP(Refitting, Repeats, Learner):
         self._repeats = np.zeros(0)  # how many times each was taught (gp_repeats): its noise is the fit's / that
         self._source = np.zeros(0, dtype=np.int64)  # who taught each (gp.GP's numbering): its noise is its teacher's
         self._chol, self._beta = np.zeros((0, 0)), np.zeros((0, n_out))
+        # served live, the answer's own (gp_kernels.predict_one): the factor in float32, its first _rows32 rows
+        # as chol's, and alpha = chol^-T beta, current while _alpha_ok; made current after learning
+        self._chol32, self._alpha = np.zeros((0, 0), dtype=np.float32), np.zeros((0, n_out))
+        self._rows32, self._alpha_ok = 0, False
         self._y_count, self._y_mean, self._y_sum_sq = 0, np.zeros(n_out), np.zeros(n_out)
         self._envelope = InputEnvelope(n_in)
         self._next_fit = first_fit
@@ -100,7 +104,6 @@ class LocalGP(Refitting, Repeats, Learner):
         self._background, self._pending = False, None  # serve_live: fits in another process
         self._searching = None  # serve_live: a search for a split under way in the splitter's process
         self._thins = 0  # thinnings so far: a factor built elsewhere over rows since moved is not used
-        self._answer_cache = None  # predict_one's constants (_constants)
         self._sd_cache = None  # (envelope count, _input_sd)
         self._use(first_hyper(n_in, n_out), rebuild=False)  # also sets the surprise and spread baselines
 
@@ -133,7 +136,8 @@ class LocalGP(Refitting, Repeats, Learner):
         if not self._taught_again(x, y):
             self._remember(x, y, source)
         self._fit_when_due()
-        self._answer_cache = None
+        if self._background and self._factored and not self._deferring:
+            self._ready_to_answer()  # served live: here, off the next answer's path (offline: at the next answer)
 
     def _remember(self, x: np.ndarray, y: np.ndarray, source: int = 0) -> None:
         if self._m >= self._room():
@@ -158,6 +162,7 @@ class LocalGP(Refitting, Repeats, Learner):
                                      kernel_ready(y - self._hyper.mu), self._inv_ell, self._hyper.centre,
                                      self._smooth, self._linear, self._row_ratio(m), before)
         self._m = m + 1
+        self._factor_changed(m)
         self._weigh_surprise(y - self._hyper.mu - before, unit_var)
         if self._background and self._m >= self.memory:
             self._refit()  # full: the fitter thins it (at once, or with the fit under way's successor)
@@ -167,8 +172,8 @@ class LocalGP(Refitting, Repeats, Learner):
         until the envelope learns again (learning asks twice a sample)."""
         count = self._envelope.count
         if self._sd_cache is None or self._sd_cache[0] != count:
-            sd = np.sqrt(self._envelope.sum_sq / max(count, 1))
-            sd = np.where(sd > 1e-12 * (1.0 + np.abs(self._envelope.mean)), sd, 0.0)
+            sd = np.empty(self.n_in)
+            gp_kernels.input_sd(self._envelope.mean, self._envelope.scatter, count, sd)
             sd.flags.writeable = False
             self._sd_cache = (count, sd)
         return self._sd_cache[1]
@@ -225,6 +230,7 @@ class LocalGP(Refitting, Repeats, Learner):
             array[:len(rows)] = array[rows]
         self._m = len(rows)
         self._thins += 1
+        self._factor_changed(0)
 
     def defer_factor(self, deferring: bool) -> None:
         """Served live, a batch (gp.GP.learn_many) keeps the factor stale until it ends, then rebuilds it
@@ -233,7 +239,6 @@ class LocalGP(Refitting, Repeats, Learner):
         self._deferring = deferring and self._background
         if not deferring and self._stale:
             self._rebuild()
-            self._answer_cache = None
 
     def remembered_inputs(self) -> np.ndarray:
         """A copy of the inputs remembered (m, n_in)."""
@@ -256,7 +261,6 @@ class LocalGP(Refitting, Repeats, Learner):
         for y in child._ys[:k]:
             child._count_target(y)
         child._next_fit = k + max(k // 2, 1)
-        child._answer_cache = None
         child.may_split = self.may_split
         if np.any(child._taught.span > 0.0):
             child._use(hyper or self._hyper)
@@ -284,6 +288,39 @@ class LocalGP(Refitting, Repeats, Learner):
         self._chol[:m, :m] = chol
         self._beta[:m] = solve_triangular(chol, self._ys[:m] - self._hyper.mu, lower=True)
         self._factored, self._stale = True, False
+        self._factor_changed(0)
+
+    def _factor_changed(self, row: int) -> None:
+        """chol from `row` on, or beta, changed: the answer's float32 factor and alpha are to be brought up to date."""
+        self._rows32, self._alpha_ok = min(self._rows32, row), False
+
+    def _ready_to_answer(self) -> None:
+        """The float32 factor's rows changed since, and alpha, made current (O(m^2)), as large as chol and beta."""
+        m = self._m
+        if self._chol32.shape != self._chol.shape:
+            self._chol32, self._alpha = np.zeros(self._chol.shape, dtype=np.float32), np.zeros(self._beta.shape)
+            self._rows32, self._alpha_ok = 0, False
+        if self._rows32 < m:
+            gp_kernels.copy32(self._chol, self._chol32, self._rows32, m)
+            self._rows32 = m
+        if not self._alpha_ok:
+            gp_kernels.back_solve(self._chol, self._beta, m, self._alpha)
+            self._alpha_ok = True
+
+    def warm_served(self) -> None:
+        """A factored leaf answers once as served live, and a copy of its factor is built, weighed again and solved
+        as served live (gram, reweigh, resolve): their kernels compiled, the leaf unchanged but for the answer's
+        copies."""
+        if not self._factored:
+            return
+        self._ready_to_answer()
+        m, hyper = self._m, self._hyper
+        gp_kernels.predict_one(self._xs, self._chol32, self._alpha, m, self._xs[0].copy(), self._inv_ell, hyper.centre,
+                               self._smooth, self._linear, self._ratio, np.empty(self.n_out))
+        chol, beta = self._chol.copy(), self._beta.copy()
+        gp_kernels.gram(self._xs, m, self._inv_ell, hyper.centre, self._smooth, self._linear, np.empty((m, m)))
+        gp_kernels.reweigh(chol, m, m - 1, self._ratio)
+        gp_kernels.resolve(chol, beta, self._ys[:m] - hyper.mu, m, m - 1)
 
     def _factor_live(self) -> np.ndarray:
         """The factor by the compiled kernel matrix (gp_factor.factor_live), its noise ratio raised where rounding
@@ -322,32 +359,24 @@ class LocalGP(Refitting, Repeats, Learner):
         if self._m == 0:
             return Prediction(np.zeros(self.n_out), 0.0, np.full(self.n_out, np.inf))
         offset = np.empty(self.n_out)
-        if self._factored:
-            unit_var = gp_kernels.predict_one(self._xs, self._chol, self._beta, self._m, x, self._inv_ell,
+        if self._factored and self._background:  # served live: no float64 factor read (gp_kernels.predict_one)
+            self._ready_to_answer()
+            unit_var = gp_kernels.predict_one(self._xs, self._chol32, self._alpha, self._m, x, self._inv_ell,
                                               self._hyper.centre, self._smooth, self._linear, self._ratio, offset)
+        elif self._factored:  # offline, every answer as ever to the last bit (see _rebuild)
+            unit_var = gp_kernels.predict_exact(self._xs, self._chol, self._beta, self._m, x, self._inv_ell,
+                                                self._hyper.centre, self._smooth, self._linear, self._ratio, offset)
         else:  # the one value taught so far
             offset[:], unit_var = self._taught.low - self._hyper.mu, 0.0
-        amplitude2, near_span, hold, floor, ceiling, envelope_mean, envelope_sd, counted, scale = self._constants()
-        y, sd = np.empty(self.n_out), np.empty(self.n_out)
-        confidence = gp_kernels.answer_one(offset, unit_var, self._hyper.mu, amplitude2, self._ratio, near_span, hold,
-                                           floor, ceiling, x, envelope_mean, envelope_sd, counted, scale,
+        y, sd, taught, envelope = np.empty(self.n_out), np.empty(self.n_out), self._taught, self._envelope
+        confidence = gp_kernels.answer_one(offset, unit_var, self._hyper.mu, self._ratio, self._hyper.log_sf,
+                                           self._y_sum_sq, self._y_count, taught.low, taught.high, taught.floor,
+                                           taught.ceiling, self.near, self._smooth > LINEAR_ENOUGH, x, envelope.mean,
+                                           envelope.scatter, envelope.count, self._hyper.varied, self.novelty_scale,
                                            min(1.0, self._n_learned / (2.0 * self.n_in)), y, sd)
         if not (np.isfinite(y).all() and math.isfinite(confidence)):
             return self._sane_one(y, confidence, sd, x)  # counts and replaces what is broken
         return Prediction(y, min(max(confidence, 0.0), 1.0), sd)
-
-    def _constants(self) -> tuple:
-        """What every answer shares until the next sample learned or fit adopted (predict_one's fast path):
-        the prior variance per output, near of the span over sqrt 2, whether answers are held and to what,
-        the envelope's mean and sd, the inputs its novelty counts along and its scale (0: no envelope)."""
-        if self._answer_cache is None:  # (dropped by whatever changes these: no copies needed)
-            envelope, varied = self._envelope, self._hyper.varied
-            sd = np.sqrt(np.maximum(envelope.scatter.diagonal(), 0.0) / max(envelope.count, 1))
-            counted = ~varied if varied.any() else np.ones(self.n_in, dtype=bool)
-            self._answer_cache = (self._amplitude2(), self.near * self._taught.span / math.sqrt(2.0),
-                                  self._smooth > LINEAR_ENOUGH, self._taught.floor, self._taught.ceiling,
-                                  envelope.mean, sd, counted, self.novelty_scale if envelope.count else 0.0)
-        return self._answer_cache
 
     def _predict_many(self, xs: np.ndarray) -> Predictions:
         self._collect()
@@ -408,7 +437,8 @@ class LocalGP(Refitting, Repeats, Learner):
     def __getstate__(self) -> dict:
         # unused rows stay out of snapshots, and so does a fit under way in the fitter's process
         state = dict(self.__dict__, _pending=None, _searching=None, _background=False, proposed_split=None,
-                     _answer_cache=None, _sd_cache=None)
+                     _sd_cache=None, _rows32=0, _alpha_ok=False)
+        del state["_chol32"], state["_alpha"]  # the answer's, made again from chol and beta
         m = self._m
         for name in ("_xs", "_ys", "_born", "_repeats", "_source", "_beta"):
             state[name] = getattr(self, name)[:m].copy()
@@ -423,4 +453,7 @@ class LocalGP(Refitting, Repeats, Learner):
             self._source = np.zeros(len(self._xs), dtype=np.int64)
         self._source = np.clip(np.asarray(self._source), 0, 255).astype(np.int64)  # (a snapshot may come from the bus)
         self.__dict__.setdefault("_thins", 0)
+        self.__dict__.pop("_answer_cache", None)  # (a snapshot from when an answer's constants were kept)
+        self._chol32, self._alpha = np.zeros((0, 0), dtype=np.float32), np.zeros((0, self.n_out))  # made when served
+        self._rows32, self._alpha_ok = 0, False
 

@@ -31,6 +31,8 @@ class Repeats:
         others = np.empty(self._m, dtype=np.int64)
         same, count = gp_kernels.same_place(self._xs, self._ys, self._m, x, kernel_ready(y),
                                             DUPLICATE * self._input_sd(), DUPLICATE * self._taught.span, others)
+        if same < 0 and count == 0:
+            return False  # a place not taught before: nothing to weigh
         rows = others[:count]
         repeats = np.maximum(self._repeats[rows] - 1.0, 1.0 / REPEATS_COUNTED)
         if same >= 0:
@@ -61,4 +63,4 @@ class Repeats:
                 break
         else:
             gp_kernels.resolve(self._chol, self._beta, self._ys[:m] - self._hyper.mu, m, int(rows.min()))
-        self._answer_cache = None
+            self._factor_changed(int(rows.min()))

@@ -14,10 +14,25 @@ LWPR does the axis-aligned form per receptive field (lwpr_placement.beyond_exper
 """
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 # an input has been seen within this many standard deviations of its mean
 EXPERIENCED_SDS = 3.0
+
+
+@nb.njit(cache=True, nogil=True)  # no fast-math: numpy's numbers
+def learn_row(x, mean, scatter, count):
+    """One row into the mean and scatter of `count` rows (Chan's merge): scatter += delta delta' count / (count + 1),
+    mean += delta / (count + 1), delta = x - mean."""
+    total = count + 1
+    weight = count / total
+    delta = x - mean
+    for i in range(x.shape[0]):
+        for j in range(x.shape[0]):
+            scatter[i, j] += delta[i] * delta[j] * weight
+    for i in range(x.shape[0]):
+        mean[i] += delta[i] / total
 
 
 class InputEnvelope:
@@ -47,12 +62,9 @@ class InputEnvelope:
         n = xs.shape[0]
         if n == 0:
             return
-        if n == 1:  # the batch merge for one row, without its zero scatter: the same numbers, a third of the time
-            total = self.count + 1
-            delta = xs[0] - self.mean
-            self.scatter += np.outer(delta, delta) * (self.count / total)
-            self.mean += delta / total
-            self.count = total
+        if n == 1:  # the batch merge for one row, without its zero scatter: the same numbers, compiled
+            learn_row(np.ascontiguousarray(xs[0], dtype=np.float64), self.mean, self.scatter, self.count)
+            self.count += 1
             self._axes = None
             return
         batch_mean = xs.mean(axis=0)

@@ -180,6 +180,10 @@ class PerOutput(Learner):
         for part in self._learners():
             part.serve_live()
 
+    def warm_served(self) -> None:
+        for part in self._learners():
+            part.warm_served()
+
     @property
     def upkeep_under_way(self) -> int:
         return sum(part.upkeep_under_way for part in self._learners())

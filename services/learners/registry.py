@@ -78,4 +78,5 @@ def compile_kernels(model) -> None:
     for _ in range(3):  # varied samples: some learners (GP) build their model only once targets vary
         scratch.learn_one(rng.uniform(-1.0, 1.0, model.n_in), rng.uniform(-1.0, 1.0, model.n_out))
     scratch.predict_one(np.zeros(model.n_in))
+    scratch.warm_served()  # the answer served live takes kernels of its own (the GP's)
     type(scratch).restore(scratch.snapshot())
