@@ -37,6 +37,11 @@ rng = np.random.default_rng(1)
 for _ in range(200):
     model.predict_one(rng.uniform(-1, 1, 4))
     model.learn_one(rng.uniform(-1, 1, 4), rng.uniform(-1, 1, 2))
+for _ in range(3):  # as a payload's arrays come: read-only (np.frombuffer), and a strided view
+    x, y = np.frombuffer(rng.uniform(-1, 1, 4).tobytes()), np.frombuffer(rng.uniform(-1, 1, 2).tobytes())
+    model.predict_one(x)
+    model.learn_one(x, y)
+    model.learn_one(rng.uniform(-1, 1, (4, 2))[:, 0], rng.uniform(-1, 1, (2, 2))[:, 1])
 model.predict_one(np.full(4, 3.0))
 model.predict_many(np.zeros((3, 4)))
 model.size

@@ -29,7 +29,7 @@ class Repeats:
     def _taught_again(self, x: np.ndarray, y: np.ndarray) -> bool:
         """Counts (x, y) against the remembered pairs at x's place; False when it is to be remembered."""
         others = np.empty(self._m, dtype=np.int64)
-        same, count = gp_kernels.same_place(self._xs, self._ys, self._m, x, kernel_ready(y),
+        same, count = gp_kernels.same_place(self._xs, self._ys, self._m, kernel_ready(x), kernel_ready(y),
                                             DUPLICATE * self._input_sd(), DUPLICATE * self._taught.span, others)
         if same < 0 and count == 0:
             return False  # a place not taught before: nothing to weigh

@@ -15,6 +15,7 @@ import math
 import numba as nb
 import numpy as np
 
+from .base import within
 from .lwpr_model import FAST_MATH
 from .lwpr_placement import beyond_experience, inherit_metric, new_field, squared_distance, trace_d
 from .lwpr_metric import update_metric
@@ -105,14 +106,6 @@ def widen(values, low, high):
             widened = True
             low[i], high[i] = min(low[i], values[i]), max(high[i], values[i])
     return widened
-
-
-@nb.njit(cache=True, fastmath=FAST_MATH)
-def within(values, low, high):
-    for i in range(values.shape[0]):
-        if values[i] < low[i] or values[i] > high[i]:
-            return False
-    return True
 
 
 @nb.njit(cache=True, fastmath=FAST_MATH, nogil=True)

@@ -63,7 +63,8 @@ class InputEnvelope:
         if n == 0:
             return
         if n == 1:  # the batch merge for one row, without its zero scatter: the same numbers, compiled
-            learn_row(np.ascontiguousarray(xs[0], dtype=np.float64), self.mean, self.scatter, self.count)
+            row = np.array(xs[0], dtype=np.float64)  # C-contiguous, writeable: the one signature compile_kernels built
+            learn_row(row, self.mean, self.scatter, self.count)
             self.count += 1
             self._axes = None
             return
