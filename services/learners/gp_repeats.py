@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import gp_kernels
-from .base import kernel_ready
+from .inputs import kernel_ready
 
 DUPLICATE = 1e-3  # of an input's spread, of an output's taught span: a pair this near a remembered one is a repeat
 REPEATS_COUNTED = 16

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-from .base import Learner, Predictions, TaughtRange, check_positive
+from .base import Learner, Predictions, TaughtRange
+from .inputs import check_positive
 from .distance_calibration import KEEP, RECENT, DistanceCalibration
 from .novelty import InputEnvelope
 from .registry import register

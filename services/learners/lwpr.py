@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (
-    Learner, Prediction, Predictions, as_matrix, as_vector, check_positive, check_range, kernel_ready,
-)
+from .base import Learner, Prediction, Predictions
+from .inputs import as_matrix, as_vector, check_positive, check_range, kernel_ready
 from .errors import LearnerInputError
 from .registry import register
 

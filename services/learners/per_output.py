@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Learner, Prediction, Predictions, as_matrix, as_vector
+from .base import Learner, Prediction, Predictions
+from .inputs import as_matrix, as_vector
 from .registry import LEARNERS, make_learner, register
 
 

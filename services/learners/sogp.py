@@ -15,7 +15,8 @@ import math
 
 import numpy as np
 
-from .base import Learner, Predictions, check_positive, kernel_ready
+from .base import Learner, Predictions
+from .inputs import check_positive, kernel_ready
 from .novelty import InputEnvelope
 from .registry import register
 
