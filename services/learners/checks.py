@@ -11,10 +11,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from . import closed_loop
-from .base import Learner, TaughtRange
+from .base import Learner
+from .checks_tasks import (
+    check_more_teaching_is_not_worse_closed_loop, check_no_nan_on_degenerate_streams, check_sane_on_robot_streams,
+    check_unsure_answers_fade_to_the_taught_mean,
+)
 from .errors import LearnerInputError
-from .unknown_tasks import draw_task
 
 Factory = Callable[..., Learner]
 N_IN, N_OUT = 3, 2
@@ -269,101 +271,6 @@ def check_error_messages(make: Factory) -> None:
     assert_rejected(lambda: model.learn_one(np.zeros(N_IN - 1), np.zeros(N_OUT)),
                     f"expected {N_IN} inputs, got {N_IN - 1}")
     assert_rejected(lambda: model.learn_one(np.array([0.0, 0.0, np.nan]), np.zeros(N_OUT)), "input 2 is nan")
-
-
-def robot_tasks():
-    """Three random tasks of the checks' shape on unit ranges, both outputs taught, with the stream
-    each is taught on: smooth trajectories (one input may be dragged along by another) or i.i.d."""
-    box = (-np.ones(N_IN), np.ones(N_IN), -np.ones(N_OUT), np.ones(N_OUT))
-    for number, kind in ((1, "trajectory"), (2, "trajectory"), (3, "iid")):
-        task = draw_task(number, *box, relevant=(2, 2), taught=(N_OUT, N_OUT))
-        yield task, task.stream(20.0, 30.0, kind)
-
-
-def check_sane_on_robot_streams(make: Factory) -> None:
-    """Taught a random task on a robot-like stream: finite answers on what follows, and far from the
-    teaching (relevant inputs 4 to 10 motion amplitudes away) answers held to the taught range plus
-    10 % of its span and confidence below the paper's 'unsure' 0.25."""
-    for task, xs in robot_tasks():
-        model = make()
-        ys = task.target(xs)
-        model.learn_many(xs[:450], ys[:450])
-        ahead = model.predict_many(xs[450:])
-        assert np.isfinite(ahead.y).all() and np.isfinite(ahead.confidence).all(), "non-finite answer on the stream"
-        far = np.tile(xs.mean(0), (40, 1))
-        rng = np.random.default_rng(task.seed)
-        for i in task.relevant:
-            far[:, i] = task.motions[i].centre + task.motions[i].amplitude * rng.choice([-1, 1], 40) * rng.uniform(4,
-                                                                                                                   10,
-                                                                                                                   40)
-        p = model.predict_many(far)
-        held = TaughtRange(N_OUT)
-        held.learn(ys[:450])
-        excess = np.max(np.maximum(p.y - held.ceiling, held.floor - p.y))
-        assert excess <= 1e-9, f"answers {excess:.3g} beyond the taught range + 10 % far from the teaching"
-        assert np.all(p.confidence < 0.25), f"confidence far from the teaching up to {p.confidence.max():.2f}"
-
-
-def check_unsure_answers_fade_to_the_taught_mean(make: Factory) -> None:
-    """Far from the teaching along inputs that varied (8 to 20 motion amplitudes away: 3.5 to 9.5 taught
-    spans beyond), a student answers the taught mean, not the teaching's trend carried to the bounds (a
-    pendulum student held full torque where it was never shown any and spun it for minutes): within 5 % of
-    the taught span of the mean."""
-    for task, xs in robot_tasks():
-        model = make()
-        ys = task.target(xs)
-        model.learn_many(xs[:450], ys[:450])
-        far = np.tile(xs.mean(0), (40, 1))
-        rng = np.random.default_rng(task.seed + 1)
-        for i in task.relevant:
-            reach = rng.choice([-1, 1], 40) * rng.uniform(8, 20, 40)
-            far[:, i] = task.motions[i].centre + task.motions[i].amplitude * reach
-        taught = ys[:450]
-        away = np.abs(model.predict_many(far).y - taught.mean(0)) / (taught.max(0) - taught.min(0))
-        assert away.max() <= 0.05, (f"far from the teaching an answer lies {away.max():.2f} of the taught span from "
-                                    "the taught mean; fade it there (services.learners.base.FADE)")
-
-
-def check_more_teaching_is_not_worse_closed_loop(make: Factory) -> None:
-    """On a closed-loop task (services.learners.closed_loop: the student's own answers choose its next
-    inputs), a student taught 4000 pairs is not worse than taught 2000 (median score of 3 runs, within
-    0.15: the score of 6 episodes moves by about that between runs). The learner as a user runs it: the
-    class's defaults. Before its fix the wired GP fell from 0.85 to -0.07 (memory thinned to the upright
-    pendulum), and from 0.98 to 0.43 (one fit for swing and catch)."""
-    cls = type(make())
-    before, after = [], []
-    for seed in range(3):
-        model = cls(N_IN, N_OUT, seed=seed)
-        closed_loop.teach(model, 2000, seed=10 * seed)
-        before.append(closed_loop.score(model))
-        closed_loop.teach(model, 2000, seed=10 * seed + 1)
-        after.append(closed_loop.score(model))
-    assert np.median(after) >= np.median(before) - 0.15, (
-        f"taught twice as long the student scored {np.median(after):.2f} (median of {np.round(after, 2).tolist()}) "
-        f"against {np.median(before):.2f} ({np.round(before, 2).tolist()}): more teaching made it worse")
-
-
-def check_no_nan_on_degenerate_streams(make: Factory) -> None:
-    """The model itself gives no NaN or inf (none the base class had to replace) on streams that break
-    naive numerics: one sample repeated, an input that never moves, inputs moving as one, huge or tiny
-    input scales, targets that never change."""
-    rng = np.random.default_rng(5)
-    line = rng.uniform(-1, 1, (300, 1))
-    streams = {
-        "one sample repeated": np.tile(rng.uniform(-1, 1, N_IN), (300, 1)),
-        "an input that never moves": np.column_stack([rng.uniform(-1, 1, (300, N_IN - 1)), np.full(300, 0.3)]),
-        "inputs moving as one": np.tile(line, (1, N_IN)),
-        "huge inputs": rng.uniform(-1e4, 1e4, (300, N_IN)),
-        "tiny inputs": rng.uniform(-1e-6, 1e-6, (300, N_IN)),
-    }
-    for name, xs in streams.items():
-        for ys in (np.sin(xs[:, :N_OUT] / np.abs(xs).max()), np.full((300, N_OUT), 0.7)):
-            model = make()
-            model.learn_many(xs, ys)
-            queries = np.vstack([xs[:30], rng.uniform(-3, 3, (30, N_IN)) * np.abs(xs).max()])
-            p = model.predict_many(queries)
-            assert model.n_broken == 0, f"{name}: the model answered NaN or inf {model.n_broken} times"
-            assert np.isfinite(p.y).all() and np.isfinite(p.confidence).all(), f"{name}: non-finite answer"
 
 
 def check_confidence_doubts_a_query_off_the_span(make: Factory) -> None:
