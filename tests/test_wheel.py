@@ -24,6 +24,7 @@ LEFT_OUT_OF_THE_COPY = (".git", ".venv*", "build", "*.egg-info", "runs", "__pyca
 SHIPPED_UNRUN = {
     # what a new part is held to, shipped as river ships its checks and Gymnasium its env checker
     "services.learners.checks": "the learners' conformance checks",
+    "services.learners.checks_tasks": "the learners' conformance checks on tasks",
     "services.learners.closed_loop": "the learners' checks' closed-loop task",
     "services.platforms.base": "the platform contract",
     "services.platforms.checks": "the platforms' conformance checks",
