@@ -7,11 +7,12 @@ import time
 import numpy as np
 import pytest
 
-from bus_schema import Episode, InstanceKeys, TrainingPair, decode
+from bus_schema import Episode, InstanceKeys, Snapshot, TrainingPair, decode
 from rigs.harness import Probe, dogged, stop
 from rigs.live.fits import caught_up
 from services.experiments import gym
 from services.experiments.wiring import wired_learner
+from services.learners.gp import GP
 
 ARBITRATOR = "arbitrator/arbitrator"
 # lockstep: each tick as soon as the last is answered (a few milliseconds), so no command is late. Paced at
@@ -73,6 +74,21 @@ def student_alone(probe: Probe, episodes: list, count: int, base: gym.Baseline) 
     return score
 
 
+def tree_of(probe: Probe) -> str:
+    """The learner's GP as its snapshot on the bus holds it: each leaf's region, samples remembered, length scales and
+    noise (printed beside each judgement: a test that fails says what the student had become)."""
+    key = InstanceKeys("main").snapshot("learner")
+    snap = decode(Snapshot, next(iter(probe.session.get(key, timeout=30))).ok.payload.to_bytes(), key)
+    model = GP.restore(snap.blob)
+    leaves = []
+    for k, leaf in enumerate(model.parts):
+        low, high = model.box(k)
+        hyper = leaf._hyper
+        leaves.append(f"    leaf {k} {np.round(low, 2)}..{np.round(high, 2)}: {leaf.size} samples, length scales "
+                      f"{np.round(np.exp(hyper.log_ell), 3)}, noise sd {np.exp(hyper.log_sn):.3g}")
+    return f"  the learner at seq {snap.seq}: {len(leaves)} leaves\n" + "\n".join(leaves)
+
+
 @pytest.mark.parametrize(("env", "teacher", "pairs", "episodes"), [
     ("Pendulum-v1", "pendulum", 4000, 8),  # 80 s: in blocks, every seed at 1.00 (40 s: worst 0.92)
     ("CartPole-v1", "cartpole", 6000, 8),
@@ -89,12 +105,14 @@ def test_taught_over_the_bus_the_student_alone_reaches_the_teacher(router, tmp_p
                        probe.counter("learner/learner", "proposals") > 0, 60, "the loop to run with its learner")
         teach(probe, pairs, statuses, taught_pairs)
         first = student_alone(probe, ended, episodes, base)
+        print(tree_of(probe))
         print("  arbitrator:", {k: probe.counter(ARBITRATOR, k) for k in ("deadline_misses", "members_silenced",
                                                                         "mode_unsure", "mode_student")})
         assert first >= 0.8, f"{env}: taught {pairs} pairs, the student alone scored {first:.2f}"
         if env == "Pendulum-v1":  # more teaching must not make it worse
             teach(probe, 2 * pairs, statuses, taught_pairs)
             again = student_alone(probe, ended, episodes, base)
+            print(tree_of(probe))
             assert again >= 0.8 and again >= first - 0.1, f"taught {3 * pairs} pairs: {again:.2f}, after {pairs}: " \
                                                           f"{first:.2f}"
         assert probe.counter("learner/learner", "rejected") == 0

@@ -55,7 +55,7 @@ class LearnerNode(Warming):
         self.serving_live = False  # the model's upkeep off the answer path: once its first catch-up is done
         self._last_confirm = -math.inf  # when a jump in seq was last put to the arbitrator (monotonic)
         self._learn_until = math.inf  # a batch's pairs are learned at once until then, the rest between answers
-        self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (say_when_fits_end)
+        self._upkeep_busy, self._next_upkeep_look = False, 0.0  # (tend_upkeep)
         self._yielding = False  # its session's group yielding (catching up before it serves)
         self._share: ShareWatch | None = None  # while yielding: whether it still gets a share of a core
         self.rejects, self.counts = box.rejects, box.counts
@@ -83,16 +83,20 @@ class LearnerNode(Warming):
             self.catch_up(CATCH_UP_SLICE_S)
         elif self._yielding and self.serving_live:
             self.stop_yielding()
-        self.say_when_fits_end()
+        self.tend_upkeep()
 
-    def say_when_fits_end(self) -> None:
-        """A status at once when the model's upkeep (the GP's fits) ends, not at the next second's: whoever
-        waits for the fits to catch up (a person, `dogged ps`, a test) hears it when it happens. Looked at
-        every UPKEEP_LOOK_S at most, so a status says so at most that often."""
+    def tend_upkeep(self) -> None:
+        """Every UPKEEP_LOOK_S at most, between answers: the model's upkeep (the GP's fits) that ended is landed,
+        and a status goes at once when none is under way any more, not at the next second's: whoever waits for
+        the fits to catch up (a person, `dogged ps`, a test) hears it when it happens."""
         now = time.monotonic()
         if now < self._next_upkeep_look:
             return
         self._next_upkeep_look = now + UPKEEP_LOOK_S
+        if self.serving_live and not self.backlog:
+            # a finished fit applied now, after an answer, not held (with its factor) until its part of the model is
+            # taught or asked again: a mirroring lesson's fits held 40 MB in the learner as long as teaching paused
+            self.counts["upkeep_landed"] += self.model.land_upkeep(LAND_UPKEEP_S)
         busy = self.model.upkeep_under_way > 0
         if self._upkeep_busy and not busy:
             self.box.status.publish_soon()
@@ -276,7 +280,8 @@ class LearnerNode(Warming):
 
 # a backlog is learned this long at a time between answers: an input waits at most about this for its answer
 CATCH_UP_SLICE_S = 0.005
-UPKEEP_LOOK_S = 0.2  # how often it looks whether the model's fits have ended (say_when_fits_end)
+UPKEEP_LOOK_S = 0.2  # how often it looks whether the model's fits have ended (tend_upkeep)
+LAND_UPKEEP_S = 0.002  # and lands those ended for about this long (Learner.land_upkeep), at least one
 # a batch's pairs are learned at once for this long; the rest join the backlog. Learned whole, the pairs a loaded
 # learner had fallen behind on came in one batch as the teacher let go, its answers stopped for a fifth of a second,
 # the arbitrator stopped waiting for it and the lockstep simulation ran 43 ticks with the head held (CI, mirroring)

@@ -9,6 +9,7 @@ defaults), stores them under the same names, and implements `_reset`, `_learn_on
 from __future__ import annotations
 
 import inspect
+import time
 from typing import NamedTuple
 
 import numba as nb
@@ -250,6 +251,13 @@ class Learner:
         """Run once the compiled kernels only serving live uses (the GP's answer from alpha and a float32 factor),
         so that compile_kernels builds them before a service says it is ready; nothing else changes."""
 
+    def land_upkeep(self, budget_s: float) -> int:
+        """Apply upkeep finished in the background (the GP's fits and splits) now, for about `budget_s` (at least
+        one job), rather than at the next call that needs it: the learner service calls this between answers
+        while serving live, so that a job's result (a fit with its factor) is not held until its part of the
+        model is taught or asked again. Returns the jobs applied; offline always 0."""
+        return 0
+
     @property
     def upkeep_under_way(self) -> int:
         """Jobs of upkeep (the GP's fits) still running on another thread: 0 once every answer from now on
@@ -335,6 +343,20 @@ class Learner:
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}(n_in={self.n_in}, n_out={self.n_out}, seed={self.seed}, {params})"
+
+
+def land_each(parts, budget_s: float, after=None) -> int:
+    """Learner.land_upkeep over a model's parts in turn (`parts()`, asked again after each: a split changes them),
+    until `budget_s` is spent once something landed; `after(k)` follows part k's landing (the tree takes its split)."""
+    end, landed, k = time.monotonic() + budget_s, 0, 0
+    while k < len(current := parts()):
+        done = current[k].land_upkeep(max(0.0, end - time.monotonic()))
+        if done and after is not None:
+            after(k)
+        landed, k = landed + done, k + 1
+        if landed and time.monotonic() >= end:
+            break
+    return landed
 
 
 def fade_toward(mean: np.ndarray, shown: TaughtRange, width: np.ndarray, xs: np.ndarray, y: np.ndarray) -> np.ndarray:

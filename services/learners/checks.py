@@ -120,6 +120,14 @@ def check_seeded_determinism(make: Factory) -> None:
     assert_same_predictions(trained(make, 200, seed=4), trained(make, 200, seed=4))
 
 
+def check_upkeep_offline_lands_nothing(make: Factory) -> None:
+    """Offline, a learner's upkeep is done in the call that needs it: nothing under way, nothing to land, and
+    land_upkeep (the learner service's, between answers) leaves its answers as they were."""
+    model, twin = trained(make, 200, seed=4), trained(make, 200, seed=4)
+    assert model.upkeep_under_way == 0 and model.land_upkeep(0.01) == 0
+    assert_same_predictions(model, twin)
+
+
 BATCHES = (1, 2, 7, 40, 100)  # rows per learn_many call in check_learn_many_matches_learn_one
 
 
@@ -306,7 +314,7 @@ def assert_same_predictions(a: Learner, b: Learner) -> None:
 
 ALL_CHECKS = [
     check_predict_before_learn, check_inputs_not_mutated, check_no_aliasing, check_read_only_inputs,
-    check_clone_independence, check_pickle_round_trip, check_seeded_determinism,
+    check_clone_independence, check_pickle_round_trip, check_seeded_determinism, check_upkeep_offline_lands_nothing,
     check_learn_many_matches_learn_one, check_memory_bounded, check_confidence_in_unit_interval,
     check_confidence_knows_what_it_knows, check_confidence_doubts_an_input_that_never_varied,
     check_bad_input_rejected, check_error_messages, check_sane_on_robot_streams, check_no_nan_on_degenerate_streams,

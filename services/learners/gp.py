@@ -22,7 +22,7 @@ import copy
 
 import numpy as np
 
-from .base import Learner, Prediction, Predictions, TaughtRange, fade_toward
+from .base import Learner, Prediction, Predictions, TaughtRange, fade_toward, land_each
 from .gp_local import LocalGP
 from .registry import register
 
@@ -217,6 +217,10 @@ class GP(Learner):
     def warm_served(self) -> None:
         for part in self._parts:
             part.warm_served()
+
+    def land_upkeep(self, budget_s: float) -> int:
+        """Each leaf's finished fit or search applied, and a split one proposes taken, until `budget_s` is spent."""
+        return land_each(lambda: self._parts, budget_s, self._take_split)
 
     @property
     def upkeep_under_way(self) -> int:

@@ -130,6 +130,21 @@ def stop_fitting(grace_s: float = 1.0) -> None:
         poll(ended, grace_s, 0.01)
 
 
+_FAILED: dict[str, int] = {}  # jobs that raised, by kind, in this process
+
+
+def failed(job, kind: str) -> bool:
+    """Whether a finished job raised (the leaf keeps what it had): logged the first time and at each doubling."""
+    err = job.exception()
+    if err is None:
+        return False
+    count = _FAILED[kind] = _FAILED.get(kind, 0) + 1
+    if count & (count - 1) == 0:
+        logging.getLogger(__name__).warning("a GP %s failed (%d so far; the leaf keeps its last): %s: %s", kind, count,
+                                            type(err).__name__, err)
+    return True
+
+
 class Refitting:
     """The fitting schedule of a LocalGP, which holds the memory (_xs, _ys, _m), the taught statistics and
     the kernel's working quantities this sets (_use)."""
@@ -205,16 +220,27 @@ class Refitting:
         if consider:
             self._searching = _submit(_splitter, job, True)
 
+    def land_upkeep(self, budget_s: float) -> int:
+        """A finished fit or search applied now (a split it proposes is left in proposed_split for the tree), and
+        the answer's copies of the factor made current: off the answer path (Learner.land_upkeep)."""
+        done = [job for job in (self._searching, self._pending and self._pending[0]) if job is not None and job.done()]
+        if not done:
+            return 0
+        self._collect()
+        if self._factored and self._background:
+            self._ready_to_answer()
+        return len(done)
+
     def _collect(self) -> None:
         """Apply a fit done in the fitter's process (a failed one leaves the last fit in place). If
         teaching went on while it ran, fit again: when teaching stops, the last fit has seen it all."""
         if self._searching is not None and self._searching.done():
             done, self._searching = self._searching, None
-            if done.exception() is None and done.result()[1] is not None:
+            if not failed(done, "search for a split") and done.result()[1] is not None:
                 self.proposed_split = done.result()[1]
         if self._pending is not None and self._pending[0].done():
             (done, seen), self._pending = self._pending, None
-            if done.exception() is None:
+            if not failed(done, "fit"):
                 self._adopt(done.result(), seen)
             if self._y_count > seen[1]:
                 self._refit()

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Learner, Prediction, Predictions
+from .base import Learner, Prediction, Predictions, land_each
 from .inputs import as_matrix, as_vector
 from .registry import LEARNERS, make_learner, register
 
@@ -184,6 +184,9 @@ class PerOutput(Learner):
     def warm_served(self) -> None:
         for part in self._learners():
             part.warm_served()
+
+    def land_upkeep(self, budget_s: float) -> int:
+        return land_each(self._learners, budget_s)
 
     @property
     def upkeep_under_way(self) -> int:
