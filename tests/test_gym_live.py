@@ -89,6 +89,13 @@ def tree_of(probe: Probe) -> str:
     return f"  the learner at seq {snap.seq}: {len(leaves)} leaves\n" + "\n".join(leaves)
 
 
+def warnings_in(log) -> str:
+    """The learner's warnings and errors so far (a fit or a search for a split that raised is logged)."""
+    lines = [line for line in log.read_text(errors="replace").splitlines() if "WARNING" in line or "ERROR" in line]
+    return "  the learner's log: " + ("\n    ".join([f"{len(lines)} warnings or errors"] + lines[-10:]) if lines else
+                                    "no warning")
+
+
 @pytest.mark.parametrize(("env", "teacher", "pairs", "episodes"), [
     ("Pendulum-v1", "pendulum", 4000, 8),  # 80 s: in blocks, every seed at 1.00 (40 s: worst 0.92)
     ("CartPole-v1", "cartpole", 6000, 8),
@@ -105,14 +112,14 @@ def test_taught_over_the_bus_the_student_alone_reaches_the_teacher(router, tmp_p
                        probe.counter("learner/learner", "proposals") > 0, 60, "the loop to run with its learner")
         teach(probe, pairs, statuses, taught_pairs)
         first = student_alone(probe, ended, episodes, base)
-        print(tree_of(probe))
+        print(tree_of(probe), warnings_in(tmp_path / "learner.log"), sep="\n")
         print("  arbitrator:", {k: probe.counter(ARBITRATOR, k) for k in ("deadline_misses", "members_silenced",
                                                                         "mode_unsure", "mode_student")})
         assert first >= 0.8, f"{env}: taught {pairs} pairs, the student alone scored {first:.2f}"
         if env == "Pendulum-v1":  # more teaching must not make it worse
             teach(probe, 2 * pairs, statuses, taught_pairs)
             again = student_alone(probe, ended, episodes, base)
-            print(tree_of(probe))
+            print(tree_of(probe), warnings_in(tmp_path / "learner.log"), sep="\n")
             assert again >= 0.8 and again >= first - 0.1, f"taught {3 * pairs} pairs: {again:.2f}, after {pairs}: " \
                                                           f"{first:.2f}"
         assert probe.counter("learner/learner", "rejected") == 0
