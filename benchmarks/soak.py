@@ -4,9 +4,7 @@ supervisor), under a scripted day (rigs/soak/day.py):
 
 - two teachers switched on and off in turn every few minutes, one on another host (a network namespace,
   rigs/netlab) whose link is cut now and then and restored;
-- `dogged swap` of the learner every 10 minutes at most, through the other registered learners and back, the
-  last swap back to the wired learner half an hour before the day ends (in the hour, every 6 minutes), so
-  that the learner judged at the end has served long enough for its growth to be measured;
+- `dogged swap` of the learner every 10 minutes, through the other registered learners and back;
 - a SIGKILL of a service every 5 minutes (the router and the recorder first, then the rest in random order);
 - the page open in headless chromium the whole time, a person driving from it now and then;
 - a stranger's burst of hostile and malformed messages every 10 minutes: without a certificate, with one of

@@ -41,18 +41,6 @@ def test_the_hour_holds_what_the_issue_asks():
     assert min(b - a for a, b in zip(disruptive, disruptive[1:])) >= pace(1.0, False).spacing_s
 
 
-@pytest.mark.parametrize("hours", [1.0, 3.0])
-def test_the_wired_learner_is_swapped_back_in_time_to_serve_the_days_last_half_hour(hours):
-    """Swapped in last at 50 minutes into the hour, the wired learner caught up for 630 s and its growth was measured
-    over 5 minutes that held its start of serving and a lesson (issue 31): now it serves the last half hour, the swaps
-    through the others closer together (never further apart than the issue's 10 minutes)."""
-    day_events, p = events(hours), pace(hours, False)
-    swaps = [e for e in day_events if e.kind == "swap"]
-    assert swaps[-1].arg == ("per-output:base=gp",) and swaps[-1].at <= p.length_s - 1800.0
-    times = [0.0] + [e.at for e in swaps]
-    assert len(swaps) >= 5 * hours and max(b - a for a, b in zip(times, times[1:])) <= 600.0 + p.spacing_s
-
-
 def test_quick_kills_the_router_and_the_recorder_and_swaps_through_two_others_and_back():
     day_events = events(quick=True)
     assert [e.arg[0] for e in day_events if e.kind == "kill"][:2] == ["router", "recorder"]

@@ -5,10 +5,10 @@ read and tested without a profile; benchmarks/soak.py carries it out.
 Lessons come in a cycle of four spells: the teacher here teaches, the student is alone, the teacher on
 the other host teaches (every other time its link is cut a while and restored), the student is alone.
 The day ends on a spell alone, with the learner the profile wires (the swaps go through the others and
-back before it, by half an hour before the day's end, so that its growth is measured over that): before
-the day's last lesson it waits for a swap still under way (`hold`), so that the last spell alone is the
-wired learner's however long its swap took. A person drives from the page now and then, at the start of
-a spell alone; the student's error is measured only while it is alone and nobody drives (`alone` events).
+back before it): before the day's last lesson it waits for a swap still under way (`hold`), so that the last
+spell alone is the wired learner's however long its swap took. A person drives from the page now and then,
+at the start of a spell alone; the student's error is measured only while it is alone and nobody drives
+(`alone` events).
 """
 from __future__ import annotations
 
@@ -28,8 +28,7 @@ class Pace:
     """How long the day is and how often each thing happens (seconds)."""
     length_s: float
     lesson_s: float        # a lesson, and each spell alone after one
-    swap_s: float          # `dogged swap` of the learner, at most this far apart...
-    wired_last_s: float    # ...and through the others and back by this long before the day's end (see `day`)
+    swap_s: float          # `dogged swap` of the learner
     kill_s: float          # a SIGKILL of a service
     stranger_s: float      # a stranger's burst
     drive_every_s: float   # a person drives at the first spell alone of every such stretch...
@@ -49,15 +48,14 @@ def pace(hours: float, quick: bool) -> Pace:
     drives, 10 %, the person's pairs, which the wired GP learns slowest, held CI's quick mirroring day 90 s
     for its last swap)."""
     if quick:
-        return Pace(length_s=60.0, lesson_s=7.5, swap_s=10.0, wired_last_s=0.0, kill_s=15.0, stranger_s=30.0,
-                    drive_every_s=60.0, drive_s=3.0, cut_s=2.5, fill_at_s=24.0, fill_s=8.0, sample_s=10.0,
-                    warmup_s=12.0, spacing_s=2.0)
+        return Pace(length_s=60.0, lesson_s=7.5, swap_s=10.0, kill_s=15.0, stranger_s=30.0, drive_every_s=60.0,
+                    drive_s=3.0, cut_s=2.5, fill_at_s=24.0, fill_s=8.0, sample_s=10.0, warmup_s=12.0, spacing_s=2.0)
     if hours <= 0:
         raise ValueError(f"--hours must be > 0, got {hours}")
     length, k = hours * 3600.0, min(hours, 1.0)
-    return Pace(length_s=length, lesson_s=120.0 * k, swap_s=600.0 * k, wired_last_s=1800.0 * k, kill_s=300.0 * k,
-                stranger_s=600.0 * k, drive_every_s=960.0 * k, drive_s=30.0 * k, cut_s=30.0 * k,
-                fill_at_s=0.4 * length, fill_s=60.0 * k, sample_s=60.0 * k, warmup_s=600.0 * k, spacing_s=30.0 * k)
+    return Pace(length_s=length, lesson_s=120.0 * k, swap_s=600.0 * k, kill_s=300.0 * k, stranger_s=600.0 * k,
+                drive_every_s=960.0 * k, drive_s=30.0 * k, cut_s=30.0 * k, fill_at_s=0.4 * length, fill_s=60.0 * k,
+                sample_s=60.0 * k, warmup_s=600.0 * k, spacing_s=30.0 * k)
 
 
 @dataclass(frozen=True, order=True)
@@ -133,12 +131,7 @@ def day(p: Pace, teachers: tuple[str, str], services: list[str], others: list[st
     events = lessons(p, teachers)
     last_alone = max(e.at for e in events if e.kind == "alone" and e.arg == (True,))
     quiet_from = last_alone - 2 * p.lesson_s  # the last spell alone is the day's measure: left in peace
-    # the swaps end with the wired learner `wired_last_s` before the day does (closer together if a whole round would
-    # not fit before then): a learner swapped in last at 50 minutes into the hour caught up on the day's history for
-    # 630 s and was measured for 5 minutes, its start of serving and a lesson in them (211 MB/h from a 13.8 MB rise)
-    swaps_end = min(quiet_from, p.length_s - p.wired_last_s)
-    every = min(p.swap_s, swaps_end / (len(others) + 1)) if p.wired_last_s else p.swap_s
-    swap_times = [k * every for k in range(1, int(swaps_end / every + 1e-9) + 1)]
+    swap_times = [k * p.swap_s for k in range(1, int(p.length_s // p.swap_s) + 1) if k * p.swap_s <= quiet_from]
     events += [Event(t, "swap", (spec,)) for t, spec in zip(swap_times, swap_specs(others, wired, len(swap_times)))]
     kill_times = [(k + 0.5) * p.kill_s for k in range(int(p.length_s // p.kill_s) + 1)
                   if (k + 0.5) * p.kill_s <= quiet_from]
