@@ -9,7 +9,7 @@ import pytest
 
 from bus_schema import InstanceKeys, Input, Proposal, Snapshot, Status, TrainingPair, decode, encode
 from bus_schema.spaces import Box
-from services.boxes.learner import LAND_UPKEEP_S, LearnerNode
+from services.boxes.learner import LearnerNode
 from services.learners import make_learner
 from services.pairlog import PairLog
 from tests.fakebus import FakeQuery, fake_box
@@ -197,39 +197,6 @@ def test_the_status_says_at_once_when_the_fits_end_not_a_second_later(monkeypatc
     turn()
     assert published == [1, 1, 1, 2, 2]
     assert decode(Status, bus.on(key)[-1], key).counters["upkeep_under_way"] == 0
-
-
-class Landing(Fits):
-    """A learner whose finished upkeep the test sets; it counts what the service asks it to land."""
-
-    def __init__(self, model):
-        super().__init__(model)
-        self.finished, self.asked = 0, []
-
-    def land_upkeep(self, budget_s):
-        self.asked.append(budget_s)
-        landed, self.finished = self.finished, 0
-        return landed
-
-
-def test_finished_fits_are_landed_between_answers_once_serving_live_with_no_backlog(monkeypatch):
-    """(issue 31) A fit that ended was held, with its factor, until its part of the model was taught or asked again:
-    a mirroring lesson's held 40 MB while teaching paused. The service lands it between answers, once serving live
-    and with nothing yet to learn, and counts it."""
-    monkeypatch.setattr("services.boxes.learner.UPKEEP_LOOK_S", 0.0)
-    model = Landing(make_learner("knn", 2, 1))
-    n, _ = node(model=model)
-    n.serving_live = False
-    model.finished = 3
-    n.handle([])
-    assert model.asked == [], "not before serving live: what it starts with is learned as offline"
-    n.serving_live = True
-    n.backlog.append((np.zeros(2), np.zeros(1), None, None))
-    n.tend_upkeep()
-    assert model.asked == [], "not with a backlog to learn first"
-    n.backlog.clear()
-    n.handle([])
-    assert model.asked == [LAND_UPKEEP_S] and n.counts["upkeep_landed"] == 3
 
 
 @pytest.mark.live  # caught up, the GP serves live: its fits in a process of their own
