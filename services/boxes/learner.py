@@ -89,7 +89,7 @@ class LearnerNode(Warming):
         """A status at once when the model's upkeep (the GP's fits) ends, not at the next second's: whoever waits for
         the fits to catch up (a person, `dogged ps`, a test) hears it when it happens. Looked at every UPKEEP_LOOK_S at
         most. (Landing ended fits here, Learner.land_upkeep every 0.2 s for 2 ms, was withdrawn: with it the hierarchy's
-        learned gait walked 65 % of its ticks where it must 80, in 2 of 2 runs; 1 of 1 passed without.)"""
+        learned gait walked 65 % of its ticks where it must 80, in 2 of 2 runs; 2 of 2 passed without.)"""
         now = time.monotonic()
         if now < self._next_upkeep_look:
             return
