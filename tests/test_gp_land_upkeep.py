@@ -1,6 +1,6 @@
-"""Finished fits landed between answers (Learner.land_upkeep): served live, a fit that ended was held with its factor
-until its leaf was taught or asked again, so a lesson's fits stayed in the learner's memory as long as teaching
-paused (issue 31: 40 MB after a mirroring lesson)."""
+"""Finished fits landed on demand (Learner.land_upkeep; the learner service no longer calls it): served live, a fit that
+ended is held with its factor until its leaf is taught or asked again, so a lesson's fits stay in the learner's memory
+as long as teaching pauses (issue 31: 40 MB after a mirroring lesson). And a fit that raised is logged."""
 from concurrent.futures import Future
 
 import numpy as np

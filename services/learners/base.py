@@ -253,9 +253,9 @@ class Learner:
 
     def land_upkeep(self, budget_s: float) -> int:
         """Apply upkeep finished in the background (the GP's fits and splits) now, for about `budget_s` (at least
-        one job), rather than at the next call that needs it: the learner service calls this between answers
-        while serving live, so that a job's result (a fit with its factor) is not held until its part of the
-        model is taught or asked again. Returns the jobs applied; offline always 0."""
+        one job), rather than at the next call that needs it, so that a job's result (a fit with its factor) is not
+        held until its part of the model is taught or asked again. Returns the jobs applied; offline always 0. The
+        learner service does not call it (withdrawn, docs/learners.md: the hierarchy's gait walked less with it)."""
         return 0
 
     @property
